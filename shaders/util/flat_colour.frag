@@ -1,0 +1,7 @@
+#version 330 core
+#include "../include/common.glsl"
+in vec3 v_colour;
+out vec4 f_colour;
+void main() {
+    f_colour = vec4(v_colour, 1.0);
+}

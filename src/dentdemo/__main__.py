@@ -1,0 +1,3 @@
+from dentdemo.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""The application shells: CLI commands, the window, the headless renderer, the Simulation."""

@@ -1,0 +1,29 @@
+"""The one exception type the CLI turns into a one-line message and a non-zero exit."""
+
+from __future__ import annotations
+
+
+class DentdemoError(Exception):
+    """A user-facing error: its message is one line that names the file, key or library at fault."""
+
+
+class ConfigError(DentdemoError):
+    """Bad input in a TOML file or on the command line."""
+
+    def __init__(self, source: str, where: str, message: str) -> None:
+        self.source = source
+        self.where = where
+        text = f"{source}: {where}: {message}" if where else f"{source}: {message}"
+        super().__init__(text)
+
+
+class GLUnavailableError(DentdemoError):
+    """No OpenGL 3.3 core context could be made."""
+
+
+class ShaderError(DentdemoError):
+    """A shader failed to load, compile or link; the message names file and line."""
+
+
+class PhysicsLibraryError(DentdemoError):
+    """The ODE library or one of the symbols we use is missing."""

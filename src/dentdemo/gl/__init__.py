@@ -1,0 +1,1 @@
+"""OpenGL plumbing: the one place that makes contexts, the shader loader, GPU reads."""

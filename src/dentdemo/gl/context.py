@@ -1,0 +1,150 @@
+"""The one place that makes OpenGL contexts: headless (EGL) or windowed (glfw), 3.3 core or better.
+
+The backend comes from the caller, else from $DENTDEMO_GL_BACKEND (`egl` for headless through EGL,
+`glx` for a standalone X11 context). Every GPU->CPU read in dentdemo goes through `GLContext.read`,
+which counts reads, so tests can prove that the simulation/carve/render loop reads nothing back.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import moderngl
+import numpy as np
+
+from dentdemo.errors import GLUnavailableError
+
+REQUIRED_VERSION = 330
+HEADLESS_BACKENDS = ("egl", "glx")
+_INSTALL_HINT = (
+    "install an OpenGL 3.3 driver with EGL (Debian: apt-get install libegl1 libegl-mesa0 "
+    "libgl1-mesa-dri)"
+)
+
+
+@dataclass
+class GLContext:
+    """A moderngl context plus what dentdemo needs beside it."""
+
+    ctx: moderngl.Context
+    backend: str
+    #: The glfw window for a windowed context, else None.
+    window: Any = None
+    #: Number of GPU->CPU reads made through `read` since creation (or the last reset).
+    reads: int = 0
+    #: Per-context caches (shader programs, meshes on the GPU) keyed by their owners.
+    cache: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def renderer(self) -> str:
+        return str(self.ctx.info.get("GL_RENDERER", "?"))
+
+    @property
+    def version(self) -> str:
+        return str(self.ctx.info.get("GL_VERSION", "?"))
+
+    def read(self, texture: moderngl.Texture, components: int | None = None) -> np.ndarray:
+        """Read a float texture back to the CPU as float32 [rows = v, cols = u, components].
+
+        For export, screenshots, benchmarks and tests only: never inside the frame loop.
+        """
+        self.reads += 1
+        comps = components or texture.components
+        dtype = {"f4": np.float32, "f2": np.float16, "f1": np.uint8, "u1": np.uint8}[texture.dtype]
+        data = np.frombuffer(texture.read(), dtype=dtype)
+        data = data.reshape(texture.height, texture.width, texture.components)
+        return np.array(data[:, :, :comps], dtype=np.float32 if dtype != np.uint8 else np.uint8)
+
+    def read_framebuffer(self, fbo: moderngl.Framebuffer, components: int = 3) -> np.ndarray:
+        """Read an 8-bit colour framebuffer as uint8 [rows from the bottom, cols, components]."""
+        self.reads += 1
+        raw = fbo.read(components=components, alignment=1)
+        return np.frombuffer(raw, dtype=np.uint8).reshape(fbo.height, fbo.width, components)
+
+    def check_error(self, where: str) -> None:
+        """Raise if OpenGL has a pending error."""
+        err = self.ctx.error
+        if err != "GL_NO_ERROR":
+            raise RuntimeError(f"OpenGL error after {where}: {err}")
+
+    def release(self) -> None:
+        self.cache.clear()
+        self.ctx.release()
+        if self.window is not None:
+            import glfw
+
+            glfw.destroy_window(self.window)
+            self.window = None
+
+
+def headless_backend(requested: str | None = None) -> str:
+    backend = (requested or os.environ.get("DENTDEMO_GL_BACKEND") or "egl").lower()
+    if backend not in HEADLESS_BACKENDS:
+        raise GLUnavailableError(
+            f"dentdemo: unknown GL backend '{backend}' (DENTDEMO_GL_BACKEND must be one of "
+            f"{', '.join(HEADLESS_BACKENDS)})"
+        )
+    return backend
+
+
+def create_headless(backend: str | None = None) -> GLContext:
+    """A standalone context with no window (EGL by default: Mesa llvmpipe where there is no GPU)."""
+    name = headless_backend(backend)
+    try:
+        ctx = moderngl.create_context(standalone=True, backend=name, require=REQUIRED_VERSION)
+    except Exception as exc:  # moderngl raises plain Exception subclasses from glcontext
+        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise GLUnavailableError(
+            f"dentdemo: no OpenGL 3.3 core context through {name.upper()} ({detail}); {_INSTALL_HINT}"
+        ) from None
+    return _checked(GLContext(ctx=ctx, backend=name))
+
+
+def create_window(
+    width: int, height: int, title: str, *, visible: bool = True, samples: int = 4
+) -> GLContext:
+    """A glfw window with an OpenGL 3.3 core context (forward compatible, as macOS requires)."""
+    import glfw
+
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        raise GLUnavailableError("dentdemo: no display (DISPLAY is not set); cannot open a window")
+    if not glfw.init():
+        raise GLUnavailableError("dentdemo: glfw could not initialise the display " + _glfw_error())
+    glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
+    glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+    glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+    glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+    glfw.window_hint(glfw.VISIBLE, visible)
+    glfw.window_hint(glfw.SAMPLES, samples)
+    window = glfw.create_window(width, height, title, None, None)
+    if not window:
+        raise GLUnavailableError(
+            "dentdemo: glfw could not open an OpenGL 3.3 core window " + _glfw_error()
+        )
+    glfw.make_context_current(window)
+    glfw.swap_interval(0)
+    try:
+        ctx = moderngl.create_context(require=REQUIRED_VERSION)
+    except Exception as exc:
+        glfw.destroy_window(window)
+        raise GLUnavailableError(f"dentdemo: window context below OpenGL 3.3 core ({exc})") from None
+    return _checked(GLContext(ctx=ctx, backend="glfw", window=window))
+
+
+def _glfw_error() -> str:
+    import glfw
+
+    code, text = glfw.get_error()
+    if text:
+        return f"({text.decode() if isinstance(text, bytes) else text})"
+    return "" if not code else f"(glfw error {code})"
+
+
+def _checked(gl: GLContext) -> GLContext:
+    if gl.ctx.version_code < REQUIRED_VERSION:
+        found = gl.ctx.version_code
+        gl.release()
+        raise GLUnavailableError(f"dentdemo: OpenGL {found} found, 330 core required; {_INSTALL_HINT}")
+    return gl

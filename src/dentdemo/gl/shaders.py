@@ -1,0 +1,153 @@
+"""Shader loader over `shaders/`: `#version` first, `#include "file"` with a depth limit and cycle
+detection, `#line` markers so compile and link errors name the file and line of the offending source.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import moderngl
+
+from dentdemo.errors import ShaderError
+from dentdemo.resources import shaders_dir
+
+MAX_INCLUDE_DEPTH = 16
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+_VERSION = re.compile(r"^\s*#\s*version\s+\d+")
+# Driver messages: Mesa "0:12(5): error: ...", NVIDIA "0(12) : error C0000: ...".
+_LOCATION = re.compile(r"\b(\d+)[:(](\d+)\)?")
+# Drivers disagree on (and Mesa sometimes drops) the source-string number of `#line N S`, so the
+# file is encoded in the line number itself: line = file_index * LINE_STRIDE + line_in_file.
+LINE_STRIDE = 100000
+
+
+@dataclass
+class ExpandedSource:
+    """A shader's source after includes, with the files that `#line` numbers refer to."""
+
+    text: str
+    #: files[i] is the path of source-string number i in the `#line` markers.
+    files: list[Path] = field(default_factory=list)
+
+    def describe(self, reported_line: int) -> tuple[str, str]:
+        """(file:line, the source line) for a line number reported by the driver."""
+        file_index, line = divmod(reported_line, LINE_STRIDE)
+        if not 0 <= file_index < len(self.files):
+            return f"<source {file_index}>:{line}", ""
+        path = self.files[file_index]
+        try:
+            lines = path.read_text().splitlines()
+            text = lines[line - 1].strip() if 0 < line <= len(lines) else ""
+        except OSError:
+            text = ""
+        return f"{_short(path)}:{line}", text
+
+
+class ShaderLibrary:
+    """Loads shader files from a root folder and builds moderngl programs from them."""
+
+    def __init__(self, root: Path | None = None) -> None:
+        self.root = Path(root) if root else shaders_dir()
+
+    def expand(self, name: str) -> ExpandedSource:
+        """Read `name` (relative to the root) with its includes spliced in."""
+        path = self._resolve(name, None)
+        out = ExpandedSource(text="")
+        lines: list[str] = []
+        first = path.read_text().splitlines()
+        if not first or not _VERSION.match(first[0]):
+            raise ShaderError(f"{_short(path)}:1: a shader must start with '#version 330 core'")
+        lines.append(first[0])
+        self._splice(path, first, 1, lines, out, stack=[path])
+        out.text = "\n".join(lines) + "\n"
+        return out
+
+    def _splice(
+        self,
+        path: Path,
+        text_lines: list[str],
+        start: int,
+        lines: list[str],
+        out: ExpandedSource,
+        stack: list[Path],
+    ) -> None:
+        file_id = len(out.files)
+        out.files.append(path)
+        lines.append(f"#line {file_id * LINE_STRIDE + start + 1}")
+        for number, line in enumerate(text_lines[start:], start=start + 1):
+            match = _INCLUDE.match(line)
+            if not match:
+                if _VERSION.match(line):
+                    raise ShaderError(f"{_short(path)}:{number}: '#version' only on a shader's first line")
+                lines.append(line)
+                continue
+            target = self._resolve(match.group(1), path, where=f"{_short(path)}:{number}")
+            if target in stack:
+                chain = " -> ".join(_short(p) for p in [*stack, target])
+                raise ShaderError(f"{_short(path)}:{number}: #include cycle: {chain}")
+            if len(stack) >= MAX_INCLUDE_DEPTH:
+                raise ShaderError(
+                    f"{_short(path)}:{number}: #include nested deeper than {MAX_INCLUDE_DEPTH}"
+                )
+            self._splice(target, target.read_text().splitlines(), 0, lines, out, [*stack, target])
+            lines.append(f"#line {file_id * LINE_STRIDE + number + 1}")
+
+    def _resolve(self, name: str, parent: Path | None, where: str = "") -> Path:
+        candidates = [parent.parent / name] if parent else []
+        candidates.append(self.root / name)
+        for candidate in candidates:
+            if candidate.is_file():
+                return candidate.resolve()
+        prefix = f"{where}: " if where else ""
+        raise ShaderError(f"{prefix}shader file '{name}' not found under {self.root}")
+
+    def program(
+        self,
+        ctx: moderngl.Context,
+        vertex: str,
+        fragment: str | None = None,
+        geometry: str | None = None,
+    ) -> moderngl.Program:
+        """Compile and link a program from shader files; errors name file and line."""
+        sources = {"vertex_shader": self.expand(vertex)}
+        if fragment:
+            sources["fragment_shader"] = self.expand(fragment)
+        if geometry:
+            sources["geometry_shader"] = self.expand(geometry)
+        try:
+            return ctx.program(**{stage: src.text for stage, src in sources.items()})
+        except moderngl.Error as exc:
+            raise ShaderError(self._explain(str(exc), sources)) from None
+
+    def _explain(self, message: str, sources: dict[str, ExpandedSource]) -> str:
+        lines = [ln.strip() for ln in message.splitlines()]
+        stage = next((ln for ln in lines if ln in sources), None)
+        body = [ln for ln in lines if ln and ln not in sources and not set(ln) <= {"="}]
+        detail = next((ln for ln in body if "error" in ln.lower() and _LOCATION.search(ln)), None)
+        if stage is None or detail is None:
+            # Link errors and unknown formats: name the files and report the most telling line.
+            names = ", ".join(_short(s.files[0]) for s in sources.values())
+            summary = detail or next((ln for ln in body if "error" in ln.lower()), body[-1] if body else message)
+            return f"shader program ({names}): {summary}"
+        match = _LOCATION.search(detail)
+        assert match is not None
+        location, text = sources[stage].describe(int(match.group(2)))
+        what = detail[match.end():].lstrip(" :)").strip()
+        return f"{location}: {what}" + (f"\n    {text}" if text else "")
+
+
+def _short(path: Path) -> str:
+    try:
+        return str(path.relative_to(shaders_dir().parent))
+    except ValueError:
+        return str(path)
+
+
+def program(gl_cache: dict, ctx: moderngl.Context, *names: str) -> moderngl.Program:
+    """A cached program per context: `program(gl.cache, gl.ctx, "a.vert", "a.frag")`."""
+    key = "program:" + "|".join(names)
+    if key not in gl_cache:
+        gl_cache[key] = ShaderLibrary().program(ctx, *names)
+    return gl_cache[key]

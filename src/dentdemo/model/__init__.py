@@ -1,0 +1,1 @@
+"""The material model and the input files (no OpenGL, no ODE)."""

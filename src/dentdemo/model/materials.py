@@ -1,0 +1,182 @@
+"""Material presets (assets/materials.toml plus user files) and the constants derived from them.
+
+Units: moduli and stresses in Pa, density in kg/m^3, depths in m, impulses in N*s,
+k in m per N*s (paper eq. 4), Y in N*s (paper eq. 5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from dentdemo.errors import ConfigError
+from dentdemo.model.validate import TableReader, load_toml
+from dentdemo.resources import assets_dir
+
+DEFAULT_MATERIALS_FILE = "materials.toml"
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Global constants that map the stress-strain model onto impulses."""
+
+    #: k = k_per_compliance * (1/P - 1/E); units 1/(m*s), so that k is in m/(N*s).
+    k_per_compliance: float = 2.0e5
+    #: Y = Y_unit * (1/(1 - eps) - 1), in N*s.
+    Y_unit: float = 1.0
+
+
+@dataclass(frozen=True)
+class Material:
+    """One material preset; every field in SI units."""
+
+    name: str
+    #: Young's modulus E, Pa.
+    youngs_modulus: float
+    #: Yield stress S_yield, Pa (documents the preset; the impulse model uses Y instead).
+    yield_stress: float
+    #: Plastic tangent modulus P, Pa, 0 < P < E.
+    plastic_modulus: float
+    #: Density, kg/m^3.
+    density: float
+    #: Coefficient of restitution eps in [0, 1).
+    restitution: float
+    #: Coulomb friction coefficient mu (ODE's mu), >= 0.
+    friction: float
+    #: Deepest dent the material's height map may hold, m.
+    max_dent_depth: float
+    #: Depth per impulse above threshold, m/(N*s) (paper eq. 4).
+    k: float
+    #: True when the preset set k itself instead of deriving it from (1/P - 1/E).
+    k_explicit: bool
+    #: Impulse threshold, N*s (paper eq. 5).
+    Y: float
+    #: Where the numbers come from.
+    source: str
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "youngs_modulus_Pa": self.youngs_modulus,
+            "yield_stress_Pa": self.yield_stress,
+            "plastic_modulus_Pa": self.plastic_modulus,
+            "density_kg_m3": self.density,
+            "restitution": self.restitution,
+            "friction": self.friction,
+            "max_dent_depth_m": self.max_dent_depth,
+            "k_m_per_Ns": self.k,
+            "k_explicit": self.k_explicit,
+            "Y_Ns": self.Y,
+            "source": self.source,
+        }
+
+
+def threshold(restitution: float, y_unit: float = 1.0) -> float:
+    """Paper eq. 5: Y = Y_unit * (1/(1 - eps) - 1), N*s; eps must lie in [0, 1)."""
+    if not 0.0 <= restitution < 1.0:
+        raise ValueError(f"restitution {restitution} outside [0, 1)")
+    return y_unit * (1.0 / (1.0 - restitution) - 1.0)
+
+
+def derived_k(youngs_modulus: float, plastic_modulus: float, k_per_compliance: float) -> float:
+    """k = C * (1/P - 1/E), m/(N*s) (paper eq. 3 abstracted by one calibration constant C)."""
+    return k_per_compliance * (1.0 / plastic_modulus - 1.0 / youngs_modulus)
+
+
+@dataclass(frozen=True)
+class MaterialLibrary:
+    """The effective presets after the built-in file and any user files."""
+
+    calibration: Calibration
+    materials: dict[str, Material]
+    sources: tuple[str, ...]
+
+    def get(self, name: str, source: str = "materials", where: str = "") -> Material:
+        """The preset `name`; an unknown name raises a ConfigError naming `source` and `where`."""
+        try:
+            return self.materials[name]
+        except KeyError:
+            known = ", ".join(sorted(self.materials))
+            raise ConfigError(source, where, f"unknown material '{name}' (known: {known})") from None
+
+    def names(self) -> list[str]:
+        return sorted(self.materials)
+
+
+def builtin_materials_path() -> Path:
+    return assets_dir() / DEFAULT_MATERIALS_FILE
+
+
+def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLibrary:
+    """Load the built-in presets, then each user file in order (adding or overriding presets)."""
+    raw_tables: dict[str, tuple[str, dict[str, Any]]] = {}
+    calibration_raw: tuple[str, dict[str, Any]] | None = None
+    files = [builtin_materials_path(), *[Path(p) for p in user_files]]
+    for path in files:
+        data = load_toml(path)
+        source = str(path)
+        for key in data:
+            if key not in ("calibration", "materials"):
+                raise ConfigError(source, f"[{key}]", "unknown table (expected [calibration] or [materials.NAME])")
+        if "calibration" in data:
+            calibration_raw = (source, data["calibration"])
+        materials = data.get("materials", {})
+        if not isinstance(materials, dict):
+            raise ConfigError(source, "[materials]", "must be a table of tables")
+        for name, table in materials.items():
+            raw_tables[name] = (source, table)
+    calibration = _parse_calibration(*calibration_raw) if calibration_raw else Calibration()
+    parsed = {name: _parse_material(src, name, tbl, calibration) for name, (src, tbl) in raw_tables.items()}
+    if not parsed:
+        raise ConfigError(str(files[-1]), "", "no materials defined")
+    return MaterialLibrary(calibration, parsed, tuple(str(p) for p in files))
+
+
+def _parse_calibration(source: str, table: Any) -> Calibration:
+    reader = TableReader(source, "calibration", table)
+    calibration = Calibration(
+        k_per_compliance=reader.number("k_per_compliance", Calibration.k_per_compliance, min_value=0.0),
+        Y_unit=reader.number("Y_unit_Ns", Calibration.Y_unit, min_value=0.0, min_inclusive=False),
+    )
+    reader.finish()
+    return calibration
+
+
+def _parse_material(source: str, name: str, table: Any, calibration: Calibration) -> Material:
+    reader = TableReader(source, f"materials.{name}", table)
+    positive = {"min_value": 0.0, "min_inclusive": False}
+    youngs = reader.number("youngs_modulus_Pa", **positive)
+    yield_stress = reader.number("yield_stress_Pa", **positive)
+    plastic = reader.number("plastic_modulus_Pa", **positive)
+    if plastic >= youngs:
+        raise reader.fail("plastic_modulus_Pa", f"must be below youngs_modulus_Pa ({youngs:g})")
+    density = reader.number("density_kg_m3", **positive)
+    restitution = reader.number("restitution", min_value=0.0, max_value=1.0, max_inclusive=False)
+    friction = reader.number("friction", min_value=0.0, max_value=10.0)
+    max_depth = reader.number("max_dent_depth_m", min_value=0.0, max_value=1.0, min_inclusive=False)
+    if reader.has("k_m_per_Ns"):
+        k = reader.number("k_m_per_Ns", min_value=0.0)
+        explicit = True
+    else:
+        k = derived_k(youngs, plastic, calibration.k_per_compliance)
+        explicit = False
+    if not math.isfinite(k):
+        raise reader.fail("k_m_per_Ns", "derived k is not finite")
+    source_text = reader.string("source", "")
+    reader.finish()
+    return Material(
+        name=name,
+        youngs_modulus=youngs,
+        yield_stress=yield_stress,
+        plastic_modulus=plastic,
+        density=density,
+        restitution=restitution,
+        friction=friction,
+        max_dent_depth=max_depth,
+        k=k,
+        k_explicit=explicit,
+        Y=threshold(restitution, calibration.Y_unit),
+        source=source_text,
+    )

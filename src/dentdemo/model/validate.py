@@ -1,0 +1,124 @@
+"""Strict field checks for TOML tables; every error names file, table, key and value."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from dentdemo.errors import ConfigError
+
+
+def load_toml(path: Path) -> dict[str, Any]:
+    """Read a TOML file; I/O and syntax errors become a ConfigError naming the file."""
+    try:
+        with open(path, "rb") as handle:
+            return tomllib.load(handle)
+    except FileNotFoundError:
+        raise ConfigError(str(path), "", "no such file") from None
+    except OSError as exc:
+        raise ConfigError(str(path), "", f"cannot read: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(str(path), "", f"malformed TOML: {exc}") from None
+
+
+class TableReader:
+    """Reads typed fields from one TOML table and reports unknown keys."""
+
+    def __init__(self, source: str, table_name: str, table: Any) -> None:
+        if not isinstance(table, Mapping):
+            raise ConfigError(source, f"[{table_name}]", f"must be a table, got {_show(table)}")
+        self.source = source
+        self.table_name = table_name
+        self.table = table
+        self._used: set[str] = set()
+
+    def fail(self, key: str, message: str) -> ConfigError:
+        value = self.table.get(key, None)
+        shown = f" = {_show(value)}" if key in self.table else ""
+        return ConfigError(self.source, f"[{self.table_name}] key '{key}'{shown}", message)
+
+    def has(self, key: str) -> bool:
+        return key in self.table
+
+    def number(
+        self,
+        key: str,
+        default: float | None = None,
+        *,
+        min_value: float | None = None,
+        max_value: float | None = None,
+        min_inclusive: bool = True,
+        max_inclusive: bool = True,
+    ) -> float:
+        self._used.add(key)
+        if key not in self.table:
+            if default is None:
+                raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
+            return default
+        value = self.table[key]
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.fail(key, "must be a number")
+        value = float(value)
+        if not math.isfinite(value):
+            raise self.fail(key, "must be finite")
+        if min_value is not None and (value < min_value or (value == min_value and not min_inclusive)):
+            op = ">=" if min_inclusive else ">"
+            raise self.fail(key, f"must be {op} {min_value:g}")
+        if max_value is not None and (value > max_value or (value == max_value and not max_inclusive)):
+            op = "<=" if max_inclusive else "<"
+            raise self.fail(key, f"must be {op} {max_value:g}")
+        return value
+
+    def vector(self, key: str, default: Sequence[float] | None, length: int = 3) -> tuple[float, ...]:
+        self._used.add(key)
+        if key not in self.table:
+            if default is None:
+                raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
+            return tuple(float(x) for x in default)
+        value = self.table[key]
+        if not isinstance(value, list) or len(value) != length:
+            raise self.fail(key, f"must be a list of {length} numbers")
+        out = []
+        for item in value:
+            if isinstance(item, bool) or not isinstance(item, int | float):
+                raise self.fail(key, f"must be a list of {length} numbers")
+            if not math.isfinite(float(item)):
+                raise self.fail(key, "must contain finite numbers only")
+            out.append(float(item))
+        return tuple(out)
+
+    def string(self, key: str, default: str | None = None, choices: Sequence[str] = ()) -> str:
+        self._used.add(key)
+        if key not in self.table:
+            if default is None:
+                raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
+            return default
+        value = self.table[key]
+        if not isinstance(value, str):
+            raise self.fail(key, "must be a string")
+        if choices and value not in choices:
+            raise self.fail(key, f"must be one of {', '.join(choices)}")
+        return value
+
+    def boolean(self, key: str, default: bool) -> bool:
+        self._used.add(key)
+        if key not in self.table:
+            return default
+        value = self.table[key]
+        if not isinstance(value, bool):
+            raise self.fail(key, "must be true or false")
+        return value
+
+    def finish(self) -> None:
+        """Raise on the first key that no reader asked for."""
+        for key in self.table:
+            if key not in self._used:
+                raise self.fail(key, "unknown key")
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."

@@ -1,0 +1,1 @@
+"""Rigid-body physics over ODE (through odepy). No other layer imports odepy."""

@@ -1,0 +1,80 @@
+"""Load odepy and check that the ODE library and every symbol dentdemo uses are present.
+
+odepy resolves symbols lazily and only prints when one is missing; this module turns each missing
+piece into a PhysicsLibraryError that names it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import io
+import os
+from types import ModuleType
+
+from dentdemo.errors import PhysicsLibraryError
+
+#: Every ODE function dentdemo calls.
+REQUIRED_SYMBOLS = (
+    "dInitODE2", "dCloseODE", "dGetConfiguration",
+    "dWorldCreate", "dWorldDestroy", "dWorldSetGravity", "dWorldStep", "dWorldQuickStep",
+    "dWorldSetQuickStepNumIterations", "dWorldSetCFM", "dWorldSetERP",
+    "dWorldSetContactSurfaceLayer", "dWorldSetContactMaxCorrectingVel",
+    "dSimpleSpaceCreate", "dSpaceDestroy", "dSpaceCollide", "dCollide",
+    "dJointGroupCreate", "dJointGroupDestroy", "dJointGroupEmpty", "dJointCreateContact",
+    "dJointAttach",
+    "dBodyCreate", "dBodyDestroy", "dBodySetPosition", "dBodySetQuaternion", "dBodySetLinearVel",
+    "dBodySetAngularVel", "dBodyGetPosition", "dBodyGetQuaternion", "dBodyGetLinearVel",
+    "dBodyGetAngularVel", "dBodySetMass", "dBodyGetPointVel",
+    "dMassSetZero", "dMassSetSphere", "dMassSetBox", "dMassSetCapsule", "dMassSetCylinder",
+    "dMassSetTrimesh", "dMassTranslate",
+    "dCreateSphere", "dCreateBox", "dCreateCapsule", "dCreateCylinder", "dCreatePlane",
+    "dCreateTriMesh", "dGeomTriMeshDataCreate", "dGeomTriMeshDataDestroy",
+    "dGeomTriMeshDataBuildDouble",
+    "dGeomDestroy", "dGeomSetBody", "dGeomGetBody", "dGeomSetPosition", "dGeomSetQuaternion",
+    "dGeomGetPosition", "dGeomGetQuaternion", "dGeomSetData", "dGeomGetData",
+    "dGeomGetClass", "dGeomSetCategoryBits", "dGeomSetCollideBits",
+)
+
+
+def _load() -> ModuleType:
+    os.environ.setdefault("HOME", os.path.expanduser("~") or "/tmp")
+    quiet = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(quiet):
+            import odepy
+    except ImportError as exc:
+        raise PhysicsLibraryError(
+            f"dentdemo: the Python package ode-python (import odepy) is missing ({exc}); "
+            "pip install ode-python"
+        ) from None
+    except Exception as exc:  # odepy.OdePyError, OSError from ctypes
+        raise PhysicsLibraryError(
+            f"dentdemo: the ODE library libode was not found or failed to load ({exc}); "
+            "Debian: apt-get install libode8"
+        ) from None
+    missing = [name for name in REQUIRED_SYMBOLS if getattr(odepy, name, None) is None]
+    if missing:
+        raise PhysicsLibraryError(
+            f"dentdemo: the installed ODE library lacks {', '.join(missing)}; "
+            "install ODE >= 0.16 (Debian: libode8)"
+        )
+    if ctypes.sizeof(odepy.dReal) != 8 or b"ODE_double_precision" not in _config_bytes(odepy):
+        raise PhysicsLibraryError(
+            "dentdemo: the ODE library is not built in double precision (dGetConfiguration lacks "
+            "ODE_double_precision); Debian's libode8 is"
+        )
+    odepy.dInitODE2(0)
+    return odepy
+
+
+def _config_bytes(module: ModuleType) -> bytes:
+    return ctypes.cast(module.dGetConfiguration(), ctypes.c_char_p).value or b""
+
+
+ode = _load()
+
+
+def ode_configuration() -> str:
+    """ODE's build configuration string (dGetConfiguration)."""
+    return _config_bytes(ode).decode()

@@ -1,0 +1,132 @@
+"""GL context, the shader loader, and an EGL smoke test."""
+
+import subprocess
+import sys
+
+import moderngl
+import numpy as np
+import pytest
+
+from dentdemo.errors import GLUnavailableError, ShaderError
+from dentdemo.gl.context import create_headless
+from dentdemo.gl.shaders import ShaderLibrary
+
+
+def test_context_is_33_core(gl):
+    assert gl.ctx.version_code >= 330
+    assert gl.renderer
+
+
+def test_egl_triangle_pixels(gl):
+    lib = ShaderLibrary()
+    prog = lib.program(gl.ctx, "util/flat_colour.vert", "util/flat_colour.frag")
+    # A red triangle covering the lower-left half of clip space.
+    data = np.array([-1, -1, 1, 0, 0, 1, -1, 1, 0, 0, -1, 1, 1, 0, 0], dtype="f4")
+    vbo = gl.ctx.buffer(data.tobytes())
+    vao = gl.ctx.vertex_array(prog, [(vbo, "2f 3f", "in_position", "in_colour")])
+    fbo = gl.ctx.simple_framebuffer((32, 32))
+    fbo.use()
+    fbo.clear(0.0, 0.0, 1.0, 1.0)
+    vao.render(moderngl.TRIANGLES)
+    pixels = gl.read_framebuffer(fbo)
+    assert tuple(pixels[2, 2]) == (255, 0, 0)  # row 0 is the bottom: inside the triangle
+    assert tuple(pixels[29, 29]) == (0, 0, 255)  # top right: outside
+    for obj in (vao, vbo, fbo):
+        obj.release()
+
+
+def test_unknown_backend_is_a_clear_error():
+    with pytest.raises(GLUnavailableError, match="unknown GL backend 'vulkan'"):
+        create_headless("vulkan")
+
+
+def test_no_context_names_what_to_install():
+    # An EGL library that cannot be loaded stands in for a machine without EGL.
+    code = (
+        "import os; os.environ['GLCONTEXT_LINUX_LIBEGL']='/nonexistent/libEGL.so';"
+        "from dentdemo.gl.context import create_headless\n"
+        "from dentdemo.errors import GLUnavailableError\n"
+        "try:\n    create_headless('egl')\nexcept GLUnavailableError as e:\n    print(e)\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert "libegl1" in result.stdout and "3.3" in result.stdout
+
+
+@pytest.fixture
+def shader_tree(tmp_path):
+    def write(files: dict[str, str]) -> ShaderLibrary:
+        for name, text in files.items():
+            path = tmp_path / name
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+        return ShaderLibrary(tmp_path)
+
+    return write
+
+
+VERT = "#version 330 core\nin vec2 p;\nvoid main() { gl_Position = vec4(p, 0.0, 1.0); }\n"
+
+
+def test_include_is_spliced_with_line_markers(shader_tree):
+    lib = shader_tree({
+        "a.frag": '#version 330 core\n#include "inc/b.glsl"\nout vec4 c;\nvoid main() { c = f(); }\n',
+        "inc/b.glsl": '#include "c.glsl"\nvec4 f() { return g(); }\n',
+        "inc/c.glsl": "vec4 g() { return vec4(1.0); }\n",
+    })
+    src = lib.expand("a.frag")
+    assert src.text.splitlines()[0] == "#version 330 core"
+    assert "vec4 g()" in src.text and "vec4 f()" in src.text
+    assert [p.name for p in src.files] == ["a.frag", "b.glsl", "c.glsl"]
+    assert "#line 3" in src.text  # back in a.frag (file 0) after the include
+    assert "#line 100001" in src.text  # b.glsl (file 1) from its first line
+
+
+def test_include_cycle_is_reported(shader_tree):
+    lib = shader_tree({
+        "a.frag": '#version 330 core\n#include "b.glsl"\n',
+        "b.glsl": '#include "c.glsl"\n',
+        "c.glsl": '#include "b.glsl"\n',
+    })
+    with pytest.raises(ShaderError, match=r"c.glsl:1: #include cycle: .*b.glsl -> .*c.glsl -> .*b.glsl"):
+        lib.expand("a.frag")
+
+
+def test_include_depth_limit(shader_tree):
+    files = {"a.frag": '#version 330 core\n#include "i0.glsl"\n'}
+    for i in range(20):
+        files[f"i{i}.glsl"] = f'#include "i{i + 1}.glsl"\n'
+    files["i20.glsl"] = "// end\n"
+    with pytest.raises(ShaderError, match="deeper than 16"):
+        shader_tree(files).expand("a.frag")
+
+
+def test_missing_include_and_missing_version(shader_tree):
+    lib = shader_tree({"a.frag": '#version 330 core\n\n#include "nope.glsl"\n', "b.frag": "void main() {}\n"})
+    with pytest.raises(ShaderError, match=r"a.frag:3: shader file 'nope.glsl' not found"):
+        lib.expand("a.frag")
+    with pytest.raises(ShaderError, match=r"b.frag:1: a shader must start with '#version 330 core'"):
+        lib.expand("b.frag")
+
+
+def test_compile_error_names_included_file_and_line(gl, shader_tree):
+    lib = shader_tree({
+        "v.vert": VERT,
+        "f.frag": '#version 330 core\n#include "helpers.glsl"\nout vec4 c;\nvoid main() { c = h(); }\n',
+        "helpers.glsl": "// helpers\nvec4 h() {\n    return vec4(undefined_thing);\n}\n",
+    })
+    with pytest.raises(ShaderError) as info:
+        lib.program(gl.ctx, "v.vert", "f.frag")
+    message = str(info.value)
+    assert "helpers.glsl:3:" in message
+    assert "undefined_thing" in message  # the offending source line is shown
+    gl.ctx.error  # compile failures leave no pending error state we care about
+
+
+def test_compile_error_in_main_file_after_include(gl, shader_tree):
+    lib = shader_tree({
+        "v.vert": VERT,
+        "f.frag": '#version 330 core\n#include "ok.glsl"\nout vec4 c;\nvoid main() { c = vec3(1.0); }\n',
+        "ok.glsl": "float ok() { return 1.0; }\n",
+    })
+    with pytest.raises(ShaderError, match=r"f.frag:4:"):
+        lib.program(gl.ctx, "v.vert", "f.frag")
