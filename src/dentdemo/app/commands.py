@@ -1,8 +1,10 @@
-"""Subcommands beyond `materials` and `info`; each adds its parser to REGISTRARS."""
+"""Subcommands beyond `materials` and `info`; each module's `register` adds its parser."""
 
 from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
 
-REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = []
+from dentdemo.app import indent
+
+REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [indent.register]

@@ -79,6 +79,30 @@ class GLContext:
             self.window = None
 
 
+def release(*objects: Any) -> None:
+    """Release moderngl objects, first moving off a framebuffer that is about to go: moderngl
+    re-binds the current framebuffer whenever it makes a new one, and a released one is an invalid
+    name (GL_INVALID_OPERATION). Headless contexts have no default framebuffer to fall back to, so
+    a 1x1 parking framebuffer is kept per context."""
+    for obj in objects:
+        if obj is None:
+            continue
+        ctx = getattr(obj, "ctx", None)
+        if ctx is not None and ctx.fbo is obj:
+            _parking(ctx).use()
+        obj.release()
+
+
+def _parking(ctx: moderngl.Context) -> moderngl.Framebuffer:
+    if ctx.screen is not None:
+        return ctx.screen
+    if not isinstance(ctx.extra, dict):
+        ctx.extra = {}
+    if "parking_fbo" not in ctx.extra:
+        ctx.extra["parking_fbo"] = ctx.framebuffer([ctx.renderbuffer((1, 1))])
+    return ctx.extra["parking_fbo"]
+
+
 def headless_backend(requested: str | None = None) -> str:
     backend = (requested or os.environ.get("DENTDEMO_GL_BACKEND") or "egl").lower()
     if backend not in HEADLESS_BACKENDS:

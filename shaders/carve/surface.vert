@@ -1,0 +1,24 @@
+#version 330 core
+// Passes 2 and 3: a body's mesh seen by the collision camera.
+#include "camera.glsl"
+
+uniform mat4 u_model;          // world from local, metres
+uniform mat3 u_normal_matrix;  // world from local, for normals
+
+in vec3 in_position;  // local metres
+in vec3 in_normal;    // local, unit
+in vec2 in_uv;        // the body's surface-map address
+
+out vec2 v_uv;
+out float v_depth;    // metres along u_forward from u_eye
+out vec3 v_normal;    // world
+
+void main() {
+    vec3 world = (u_model * vec4(in_position, 1.0)).xyz;
+    vec3 rel = world - u_eye;
+    v_uv = in_uv;
+    v_depth = dot(rel, u_forward);
+    v_normal = u_normal_matrix * in_normal;
+    float z = 2.0 * (v_depth - u_depth_range.x) / (u_depth_range.y - u_depth_range.x) - 1.0;
+    gl_Position = vec4(dot(rel, u_right) / u_half_extent.x, dot(rel, u_up) / u_half_extent.y, z, 1.0);
+}

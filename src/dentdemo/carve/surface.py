@@ -1,0 +1,183 @@
+"""Per-body surface maps on the GPU: height (R32F, metres), normal (RGBA8, tangent space) and the
+static chart mask (R8), plus the body's mesh in GPU buffers."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import moderngl
+import numpy as np
+
+from dentdemo.errors import DentdemoError
+from dentdemo.gl.context import GLContext, release
+from dentdemo.gl.shaders import program
+from dentdemo.mesh.mesh import Mesh
+
+#: Largest map side, texels; a bigger request is capped with a warning.
+MAX_MAP_SIZE = 4096
+MIN_MAP_SIZE = 16
+
+
+def map_size_for(mesh: Mesh, texels_per_metre: float, cap: int = MAX_MAP_SIZE) -> int:
+    """Side of a square map giving about `texels_per_metre` on the mesh's surface."""
+    if not np.isfinite(texels_per_metre) or texels_per_metre <= 0:
+        raise DentdemoError(f"texels_per_metre must be a positive number, got {texels_per_metre}")
+    su, sv = mesh.uv_scale()  # metres per uv unit
+    side = int(np.ceil(max(su, sv) * texels_per_metre))
+    if side > cap:
+        warnings.warn(
+            f"{mesh.name}: a {side}^2 map for {texels_per_metre:g} texels/m is capped at {cap}^2",
+            stacklevel=2,
+        )
+        side = cap
+    return max(MIN_MAP_SIZE, side)
+
+
+class GpuMesh:
+    """A mesh's vertex and index buffers, shared by every pass that draws it."""
+
+    def __init__(self, gl: GLContext, mesh: Mesh) -> None:
+        ctx = gl.ctx
+        self.mesh = mesh
+        data = np.hstack([mesh.positions, mesh.normals, mesh.uvs, mesh.tangents]).astype("f4")
+        self.vbo = ctx.buffer(data.tobytes())
+        self.ibo = ctx.buffer(mesh.indices.astype("u4").tobytes())
+        self._vaos: dict[int, moderngl.VertexArray] = {}
+        self._ctx = ctx
+
+    _LAYOUT = "3f 3f 2f 4f"
+    _NAMES = ("in_position", "in_normal", "in_uv", "in_tangent")
+
+    def vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
+        """A vertex array binding the attributes `prog` uses (cached per program)."""
+        key = prog.glo
+        if key not in self._vaos:
+            used = [n for n in self._NAMES if n in prog]
+            fmt = " ".join(f if n in used else f"{f[0]}x4" for f, n in zip(self._LAYOUT.split(), self._NAMES, strict=True))
+            self._vaos[key] = self._ctx.vertex_array(prog, [(self.vbo, fmt, *used)], self.ibo)
+        return self._vaos[key]
+
+    def release(self) -> None:
+        release(*self._vaos.values(), self.vbo, self.ibo)
+
+
+@dataclass
+class SurfaceMaps:
+    """The maps of one body. Heights in metres along the surface normal (0 pristine, < 0 dent)."""
+
+    height: moderngl.Texture
+    normal: moderngl.Texture
+    mask: moderngl.Texture
+    #: Surface length of one texel along +u and +v, metres.
+    texel_metres: tuple[float, float]
+    #: Deepest height the map may hold is -max_dent_depth, metres.
+    max_dent_depth: float
+    height_fbo: moderngl.Framebuffer
+    normal_fbo: moderngl.Framebuffer
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.height.size
+
+    def bytes_per_texel(self) -> int:
+        return 4 + 4 + 1  # R32F height, RGBA8 normal, R8 mask
+
+    def gpu_bytes(self) -> int:
+        w, h = self.size
+        return w * h * self.bytes_per_texel()
+
+    def release(self) -> None:
+        release(self.height_fbo, self.normal_fbo, self.height, self.normal, self.mask)
+
+
+def create_maps(
+    gl: GLContext,
+    gpu_mesh: GpuMesh,
+    size: int,
+    max_dent_depth: float,
+    initial_height: np.ndarray | None = None,
+) -> SurfaceMaps:
+    """Allocate a body's maps, draw its chart mask and build the normals of the start height."""
+    ctx = gl.ctx
+    mesh = gpu_mesh.mesh
+    height = ctx.texture((size, size), 1, dtype="f4")
+    height.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    height.repeat_x = height.repeat_y = False
+    if initial_height is not None:
+        heights = np.ascontiguousarray(initial_height, dtype=np.float32)
+        if heights.shape != (size, size):
+            raise DentdemoError(f"initial height map is {heights.shape}, the body needs {(size, size)}")
+        if not np.isfinite(heights).all():
+            raise DentdemoError("initial height map holds NaN or infinity")
+        height.write(np.maximum(heights, -max_dent_depth).tobytes())
+    else:
+        height.write(np.zeros((size, size), np.float32).tobytes())
+    normal = ctx.texture((size, size), 4, dtype="f1")
+    normal.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    normal.repeat_x = normal.repeat_y = False
+    mask = ctx.texture((size, size), 1, dtype="f1")
+    mask.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    mask_fbo = ctx.framebuffer([mask])
+    mask_fbo.use()
+    mask_fbo.clear(0.0)
+    ctx.disable(moderngl.CULL_FACE | moderngl.DEPTH_TEST | moderngl.BLEND)
+    gpu_mesh.vao(program(gl.cache, ctx, "util/uv_mask.vert", "util/uv_mask.frag")).render(moderngl.TRIANGLES)
+    su, sv = mesh.uv_scale()
+    maps = SurfaceMaps(
+        height=height,
+        normal=normal,
+        mask=mask,
+        texel_metres=(su / size, sv / size),
+        max_dent_depth=max_dent_depth,
+        height_fbo=ctx.framebuffer([height]),
+        normal_fbo=ctx.framebuffer([normal]),
+    )
+    rebuild_all_normals(gl, maps)
+    release(mask_fbo)
+    return maps
+
+
+def rebuild_all_normals(gl: GLContext, maps: SurfaceMaps) -> None:
+    """Normals of the whole map (at creation and import only; a hit rebuilds its footprint)."""
+    ctx = gl.ctx
+    prog = program(gl.cache, ctx, "util/fullscreen.vert", "carve/normals.frag")
+    maps.height.use(0)
+    maps.mask.use(1)
+    prog["u_height"] = 0
+    prog["u_mask"] = 1
+    prog["u_texel_metres"] = maps.texel_metres
+    prog["u_whole_map"] = True
+    maps.normal_fbo.use()
+    ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+    key = "vao:fullscreen"
+    if key not in gl.cache:
+        gl.cache[key] = ctx.vertex_array(prog, [])
+    gl.cache[key].render(moderngl.TRIANGLES, vertices=3)
+
+
+def export_maps(gl: GLContext, maps: SurfaceMaps, path: Path) -> None:
+    """Write height (float32 [v, u], metres) and normal (uint8 [v, u, 4]) to an .npz (export only)."""
+    height = gl.read(maps.height)[:, :, 0]
+    normal = gl.read(maps.normal)
+    tmp = Path(path).with_suffix(".tmp.npz")
+    np.savez(tmp, height=height, normal=normal, texel_metres=np.array(maps.texel_metres),
+             max_dent_depth=np.array(maps.max_dent_depth))
+    tmp.replace(path)
+
+
+def import_maps(gl: GLContext, maps: SurfaceMaps, path: Path) -> None:
+    """Load maps written by export_maps into a body's maps of the same size (exact round trip)."""
+    try:
+        data = np.load(path)
+        height, normal = data["height"], data["normal"]
+    except (OSError, KeyError, ValueError) as exc:
+        raise DentdemoError(f"{path}: not a dentdemo maps file ({exc})") from None
+    w, h = maps.size
+    if height.shape != (h, w) or normal.shape != (h, w, 4):
+        raise DentdemoError(f"{path}: maps are {height.shape}, the body needs {(h, w)}")
+    if height.dtype != np.float32 or not np.isfinite(height).all():
+        raise DentdemoError(f"{path}: height must be finite float32")
+    maps.height.write(np.ascontiguousarray(height).tobytes())
+    maps.normal.write(np.ascontiguousarray(normal, dtype=np.uint8).tobytes())

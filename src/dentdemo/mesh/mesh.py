@@ -1,0 +1,184 @@
+"""The Mesh type: positions, normals, right-handed tangent frames and unique UVs, in local metres."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+F32 = NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class SurfacePoint:
+    """A point on a mesh surface with its local frame (all in the mesh's local space)."""
+
+    uv: NDArray[np.float64]
+    #: Partial derivatives of position by u and v, m per uv unit.
+    dpdu: NDArray[np.float64]
+    dpdv: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    distance: float
+
+
+@dataclass
+class Mesh:
+    """An indexed triangle mesh; faces wind counter-clockwise seen from outside."""
+
+    name: str
+    positions: F32  # (n, 3) local metres
+    normals: F32  # (n, 3) unit, outward
+    uvs: F32  # (n, 2) in [0, 1], unique per surface point (an atlas)
+    indices: NDArray[np.uint32]  # (m, 3)
+    #: True when the surface curves (texel density varies; the carve oversamples).
+    curved: bool = False
+    tangents: F32 = field(default=None)  # (n, 4): xyz along +u, w = handedness (+1 right-handed)
+
+    def __post_init__(self) -> None:
+        self.positions = np.ascontiguousarray(self.positions, dtype=np.float32)
+        self.normals = np.ascontiguousarray(self.normals, dtype=np.float32)
+        self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float32)
+        self.indices = np.ascontiguousarray(self.indices, dtype=np.uint32).reshape(-1, 3)
+        self._drop_degenerate()
+        self._orient_outward()
+        if self.tangents is None:
+            self.tangents = compute_tangents(self.positions, self.normals, self.uvs, self.indices)
+
+    # -- geometry queries ---------------------------------------------------------------------
+    @property
+    def bounding_radius(self) -> float:
+        """Radius of the sphere about the local origin that holds the mesh, m."""
+        return float(np.sqrt((self.positions.astype(np.float64) ** 2).sum(axis=1).max()))
+
+    def triangle_corners(self) -> tuple[NDArray[np.float64], ...]:
+        p = self.positions.astype(np.float64)
+        i = self.indices
+        return p[i[:, 0]], p[i[:, 1]], p[i[:, 2]]
+
+    def surface_area(self) -> float:
+        a, b, c = self.triangle_corners()
+        return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+
+    def uv_area(self) -> float:
+        t = self.uvs.astype(np.float64)[self.indices]
+        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        return float(0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())
+
+    def uv_scale(self) -> tuple[float, float]:
+        """Area-weighted mean |dP/du| and |dP/dv|: metres per unit of u and of v."""
+        dpdu, dpdv, area = _triangle_derivatives(self)
+        w = area / max(area.sum(), 1e-30)
+        return (
+            float((np.linalg.norm(dpdu, axis=1) * w).sum()),
+            float((np.linalg.norm(dpdv, axis=1) * w).sum()),
+        )
+
+    def surface_at(self, point: NDArray[np.float64]) -> SurfacePoint:
+        """The surface point nearest to `point` (local metres), with its uv and tangent frame."""
+        p = np.asarray(point, dtype=np.float64)
+        a, b, c = self.triangle_corners()
+        closest, bary = _closest_on_triangles(p, a, b, c)
+        dist = np.linalg.norm(closest - p, axis=1)
+        k = int(np.argmin(dist))
+        uv = (self.uvs.astype(np.float64)[self.indices[k]] * bary[k][:, None]).sum(axis=0)
+        dpdu, dpdv, _ = _triangle_derivatives(self, np.array([k]))
+        n = np.cross(b[k] - a[k], c[k] - a[k])
+        n /= max(np.linalg.norm(n), 1e-30)
+        return SurfacePoint(uv, dpdu[0], dpdv[0], n, float(dist[k]))
+
+    # -- clean-up ------------------------------------------------------------------------------
+    def _drop_degenerate(self) -> None:
+        a, b, c = self.triangle_corners()
+        area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        t = self.uvs.astype(np.float64)[self.indices]
+        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        uv_area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        keep = (area > 1e-14) & (uv_area > 1e-14)
+        self.indices = np.ascontiguousarray(self.indices[keep])
+
+    def _orient_outward(self) -> None:
+        a, b, c = self.triangle_corners()
+        face_n = np.cross(b - a, c - a)
+        vert_n = self.normals.astype(np.float64)[self.indices].sum(axis=1)
+        flip = (face_n * vert_n).sum(axis=1) < 0
+        self.indices[flip] = self.indices[flip][:, ::-1]
+
+
+def _triangle_derivatives(
+    mesh: Mesh, which: NDArray[np.int64] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Per-triangle dP/du, dP/dv (m per uv unit) and area (m^2)."""
+    idx = mesh.indices if which is None else mesh.indices[which]
+    p = mesh.positions.astype(np.float64)[idx]
+    t = mesh.uvs.astype(np.float64)[idx]
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    d1, d2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    det = np.where(np.abs(det) < 1e-20, 1e-20, det)
+    dpdu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) / det[:, None]
+    dpdv = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) / det[:, None]
+    area = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+    return dpdu, dpdv, area
+
+
+def compute_tangents(positions: F32, normals: F32, uvs: F32, indices: NDArray[np.uint32]) -> F32:
+    """Per-vertex tangent along +u, Gram-Schmidt against the normal; w = +1 where (T, B, N) is
+    right-handed with B along +v, -1 where the uv map is mirrored."""
+    mesh_like = Mesh.__new__(Mesh)
+    mesh_like.positions, mesh_like.uvs, mesh_like.indices = positions, uvs, indices
+    dpdu, dpdv, area = _triangle_derivatives(mesh_like)
+    n = len(positions)
+    tan = np.zeros((n, 3))
+    bit = np.zeros((n, 3))
+    for corner in range(3):
+        np.add.at(tan, indices[:, corner], dpdu * area[:, None])
+        np.add.at(bit, indices[:, corner], dpdv * area[:, None])
+    nrm = normals.astype(np.float64)
+    tan -= nrm * (tan * nrm).sum(axis=1, keepdims=True)
+    length = np.linalg.norm(tan, axis=1, keepdims=True)
+    # Fallback where +u is undefined (poles): any unit vector orthogonal to the normal.
+    fallback = np.cross(nrm, np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+    tan = np.where(length > 1e-12, tan / np.maximum(length, 1e-30), fallback)
+    tan /= np.linalg.norm(tan, axis=1, keepdims=True)
+    handed = np.where((np.cross(nrm, tan) * bit).sum(axis=1) < 0.0, -1.0, 1.0)
+    return np.hstack([tan, handed[:, None]]).astype(np.float32)
+
+
+def _closest_on_triangles(
+    p: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64], c: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Closest points on many triangles to one point, with barycentric weights (Ericson 5.1.5)."""
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = (ab * ap).sum(1), (ac * ap).sum(1)
+    bp = p - b
+    d3, d4 = (ab * bp).sum(1), (ac * bp).sum(1)
+    cp = p - c
+    d5, d6 = (ab * cp).sum(1), (ac * cp).sum(1)
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+    denom = np.where(np.abs(va + vb + vc) < 1e-30, 1e-30, va + vb + vc)
+    v = vb / denom
+    w = vc / denom
+    bary = np.stack([1 - v - w, v, w], axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # Edge and vertex regions.
+        regions = [
+            ((d1 <= 0) & (d2 <= 0), np.stack([np.ones_like(d1), 0 * d1, 0 * d1], 1)),
+            ((d3 >= 0) & (d4 <= d3), np.stack([0 * d1, np.ones_like(d1), 0 * d1], 1)),
+            ((d6 >= 0) & (d5 <= d6), np.stack([0 * d1, 0 * d1, np.ones_like(d1)], 1)),
+        ]
+        t_ab = np.clip(d1 / (d1 - d3), 0, 1)
+        regions.append(((vc <= 0) & (d1 >= 0) & (d3 <= 0), np.stack([1 - t_ab, t_ab, 0 * d1], 1)))
+        t_ac = np.clip(d2 / (d2 - d6), 0, 1)
+        regions.append(((vb <= 0) & (d2 >= 0) & (d6 <= 0), np.stack([1 - t_ac, 0 * d1, t_ac], 1)))
+        t_bc = np.clip((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0, 1)
+        regions.append(
+            ((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), np.stack([0 * d1, 1 - t_bc, t_bc], 1))
+        )
+    for mask, weights in reversed(regions):
+        bary = np.where(mask[:, None], weights, bary)
+    bary = np.nan_to_num(bary)
+    closest = a * bary[:, :1] + b * bary[:, 1:2] + c * bary[:, 2:3]
+    return closest, bary

@@ -1,0 +1,143 @@
+"""Built-in meshes, each with a unique UV atlas and gutters between its charts.
+
+Plate (DESIGN.md convention): side S, normal +Y, x = (u - 0.5) S, z = (0.5 - v) S.
+Box and cube-sphere: six charts in a 3 x 2 atlas. Capsule and cylinder: surfaces of revolution about
+local +Z (ODE's axis), u around the axis, v along the profile. All sizes in metres.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dentdemo.mesh.mesh import Mesh
+
+#: Gutter around every chart, in uv units (2 texels at 256^2, 32 at 4096^2).
+GUTTER = 1.0 / 128.0
+
+# Cube faces as (normal, a, b) with a x b = normal; a runs along +u and b along +v of the face chart.
+_CUBE_FACES = (
+    ((1, 0, 0), (0, 0, -1), (0, 1, 0)),
+    ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
+    ((0, 1, 0), (1, 0, 0), (0, 0, -1)),
+    ((0, -1, 0), (1, 0, 0), (0, 0, 1)),
+    ((0, 0, 1), (1, 0, 0), (0, 1, 0)),
+    ((0, 0, -1), (-1, 0, 0), (0, 1, 0)),
+)
+
+
+def _grid_indices(rows: int, cols: int, offset: int) -> np.ndarray:
+    """Two triangles per cell of a (rows+1) x (cols+1) vertex grid laid out row by row."""
+    r, c = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    i0 = (offset + r * (cols + 1) + c).ravel()
+    i1, i2, i3 = i0 + 1, i0 + cols + 1, i0 + cols + 2
+    return np.concatenate([np.stack([i0, i1, i3], 1), np.stack([i0, i3, i2], 1)])
+
+
+def _cell(face: int) -> tuple[float, float, float, float]:
+    """uv rectangle (u0, v0, du, dv) of chart `face` in the 3 x 2 atlas, inside its gutter."""
+    col, row = face % 3, face // 3
+    return (col / 3 + GUTTER, row / 2 + GUTTER, 1 / 3 - 2 * GUTTER, 1 / 2 - 2 * GUTTER)
+
+
+def plate(side: float, subdivisions: int = 8) -> Mesh:
+    """The top face of a plate: a square of side `side` at y = 0 covering the whole uv square."""
+    n = subdivisions
+    s = np.linspace(0.0, 1.0, n + 1)
+    v, u = np.meshgrid(s, s, indexing="ij")
+    uv = np.stack([u.ravel(), v.ravel()], 1)
+    pos = np.stack([(uv[:, 0] - 0.5) * side, np.zeros(len(uv)), (0.5 - uv[:, 1]) * side], 1)
+    normals = np.tile([0.0, 1.0, 0.0], (len(uv), 1))
+    return Mesh("plate", pos, normals, uv, _grid_indices(n, n, 0), curved=False)
+
+
+def box(size: tuple[float, float, float], subdivisions: int = 4) -> Mesh:
+    """A box of full extents `size` (x, y, z) centred at the origin; one chart per face."""
+    half = np.asarray(size, dtype=np.float64) / 2.0
+    return _cube_atlas("box", subdivisions, lambda n, a, b, s, t: n * half + (s * a + t * b) * half, False)
+
+
+def sphere(radius: float, subdivisions: int = 32) -> Mesh:
+    """A cube-sphere with the equal-angle warp (low distortion); one chart per cube face."""
+
+    def place(n, a, b, s, t):
+        d = n + np.tan(s * math.pi / 4) * a + np.tan(t * math.pi / 4) * b
+        return radius * d / np.linalg.norm(d, axis=1, keepdims=True)
+
+    return _cube_atlas("sphere", subdivisions, place, True)
+
+
+def _cube_atlas(name: str, n: int, place, curved: bool) -> Mesh:
+    positions, normals, uvs, indices = [], [], [], []
+    grid = np.linspace(-1.0, 1.0, n + 1)
+    t, s = np.meshgrid(grid, grid, indexing="ij")
+    s, t = s.ravel()[:, None], t.ravel()[:, None]
+    for face, (nrm, a, b) in enumerate(_CUBE_FACES):
+        nv, av, bv = (np.asarray(x, dtype=np.float64) for x in (nrm, a, b))
+        pos = place(nv, av, bv, s, t)
+        nr = pos / np.linalg.norm(pos, axis=1, keepdims=True) if curved else np.tile(nv, (len(pos), 1))
+        u0, v0, du, dv = _cell(face)
+        uv = np.hstack([u0 + (s + 1) / 2 * du, v0 + (t + 1) / 2 * dv])
+        indices.append(_grid_indices(n, n, sum(len(p) for p in positions)))
+        positions.append(pos)
+        normals.append(nr)
+        uvs.append(uv)
+    return Mesh(name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices), curved)
+
+
+def _revolve(name: str, segments: list[tuple[np.ndarray, np.ndarray, np.ndarray]], around: int) -> Mesh:
+    """Surfaces of revolution about +Z. Each segment is (r, z, profile normal (nr, nz)) sampled
+    along the profile; segments meet at sharp edges, so each gets its own rows and its own v band."""
+    lengths = [float(np.hypot(np.diff(r), np.diff(z)).sum()) for r, z, _ in segments]
+    total = sum(lengths)
+    phi = np.linspace(0.0, 2 * math.pi, around + 1)
+    positions, normals, uvs, indices = [], [], [], []
+    v_start = 0.0
+    for (r, z, nrz), length in zip(segments, lengths, strict=True):
+        arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(r), np.diff(z)))]) / max(length, 1e-12)
+        band = length / total
+        v = v_start + GUTTER + arc * (band - 2 * GUTTER)
+        v_start += band
+        rr, pp = np.meshgrid(r, phi, indexing="ij")
+        zz = np.repeat(z[:, None], around + 1, 1)
+        pos = np.stack([rr * np.cos(pp), rr * np.sin(pp), zz], -1).reshape(-1, 3)
+        nr = np.repeat(nrz[:, :1], around + 1, 1)
+        nz = np.repeat(nrz[:, 1:], around + 1, 1)
+        nrm = np.stack([nr * np.cos(pp), nr * np.sin(pp), nz], -1).reshape(-1, 3)
+        uu = GUTTER + phi / (2 * math.pi) * (1 - 2 * GUTTER)
+        uv = np.stack(np.meshgrid(v, uu, indexing="ij")[::-1], -1).reshape(-1, 2)
+        indices.append(_grid_indices(len(r) - 1, around, sum(len(p) for p in positions)))
+        positions.append(pos)
+        normals.append(nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12))
+        uvs.append(uv)
+    return Mesh(name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices), True)
+
+
+def capsule(radius: float, length: float, around: int = 64, rings: int = 16) -> Mesh:
+    """A capsule along local Z: a cylinder of `length` between two hemispheres of `radius`."""
+    theta = np.linspace(-math.pi / 2, math.pi / 2, 2 * rings + 1)
+    half = length / 2
+    # One smooth profile: bottom hemisphere, the straight side (two rows at the equator), top.
+    lower, upper = theta[theta <= 0], theta[theta >= 0]
+    r = np.concatenate([radius * np.cos(lower), radius * np.cos(upper)])
+    z = np.concatenate([-half + radius * np.sin(lower), half + radius * np.sin(upper)])
+    n = np.concatenate([np.stack([np.cos(lower), np.sin(lower)], 1), np.stack([np.cos(upper), np.sin(upper)], 1)])
+    return _revolve("capsule", [(r, z, n)], around)
+
+
+def cylinder(radius: float, length: float, around: int = 64, rings: int = 8) -> Mesh:
+    """A closed cylinder along local Z with flat caps (three charts: bottom, side, top)."""
+    half = length / 2
+    cap = np.linspace(0.0, radius, rings + 1)
+    side = np.linspace(-half, half, rings + 1)
+    ones = np.ones(rings + 1)
+    return _revolve(
+        "cylinder",
+        [
+            (cap, -half * ones, np.stack([0 * ones, -ones], 1)),
+            (radius * ones, side, np.stack([ones, 0 * ones], 1)),
+            (cap[::-1], half * ones, np.stack([0 * ones, ones], 1)),
+        ],
+        around,
+    )
