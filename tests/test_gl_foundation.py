@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dentdemo.errors import GLUnavailableError, ShaderError
-from dentdemo.gl.context import create_headless
+from dentdemo.gl.context import create_headless, release
 from dentdemo.gl.shaders import ShaderLibrary
 
 
@@ -31,8 +31,7 @@ def test_egl_triangle_pixels(gl):
     pixels = gl.read_framebuffer(fbo)
     assert tuple(pixels[2, 2]) == (255, 0, 0)  # row 0 is the bottom: inside the triangle
     assert tuple(pixels[29, 29]) == (0, 0, 255)  # top right: outside
-    for obj in (vao, vbo, fbo):
-        obj.release()
+    release(vao, vbo, fbo)
 
 
 def test_unknown_backend_is_a_clear_error():
@@ -44,7 +43,7 @@ def test_no_context_names_what_to_install():
     # An EGL library that cannot be loaded stands in for a machine without EGL.
     code = (
         "import os; os.environ['GLCONTEXT_LINUX_LIBEGL']='/nonexistent/libEGL.so';"
-        "from dentdemo.gl.context import create_headless\n"
+        "from dentdemo.gl.context import create_headless, release\n"
         "from dentdemo.errors import GLUnavailableError\n"
         "try:\n    create_headless('egl')\nexcept GLUnavailableError as e:\n    print(e)\n"
     )

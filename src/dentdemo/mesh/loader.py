@@ -1,0 +1,133 @@
+"""Meshes from files (OBJ, glTF, PLY, STL... through trimesh), with a check that the texture
+coordinates are a unique atlas and an automatic re-atlas (xatlas) where they are not."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.errors import DentdemoError
+from dentdemo.mesh.mesh import Mesh
+
+#: Resolution of the raster used to find overlapping UV triangles.
+OVERLAP_GRID = 256
+#: Padding between xatlas charts, in texels of its packing resolution.
+ATLAS_PADDING = 4
+ATLAS_RESOLUTION = 1024
+
+
+@dataclass(frozen=True)
+class UVReport:
+    """What is wrong with a mesh's texture coordinates, if anything."""
+
+    missing: bool = False
+    tiled: bool = False  # coordinates outside [0, 1]
+    overlapping: bool = False
+    #: Share of sampled atlas cells covered by more than one triangle.
+    overlap_fraction: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return not (self.missing or self.tiled or self.overlapping)
+
+    def describe(self) -> str:
+        parts = [n for n, bad in (("missing", self.missing), ("tiled", self.tiled),
+                                  ("overlapping", self.overlapping)) if bad]
+        return ", ".join(parts) or "unique"
+
+
+def check_uvs(uvs: NDArray[np.floating] | None, indices: NDArray[np.integer]) -> UVReport:
+    """Classify texture coordinates: missing, tiled (outside [0, 1]) or overlapping charts."""
+    if uvs is None or len(uvs) == 0:
+        return UVReport(missing=True)
+    uv = np.asarray(uvs, dtype=np.float64)
+    if not np.isfinite(uv).all():
+        return UVReport(missing=True)
+    eps = 1e-4
+    tiled = bool((uv < -eps).any() or (uv > 1 + eps).any())
+    fraction = _overlap_fraction(uv, np.asarray(indices).reshape(-1, 3))
+    return UVReport(tiled=tiled, overlapping=fraction > 1e-3, overlap_fraction=fraction)
+
+
+def _overlap_fraction(uv: NDArray[np.float64], tris: NDArray[np.integer]) -> float:
+    """Rasterise every UV triangle at cell centres of an OVERLAP_GRID^2 grid; count cells hit
+    twice or more (shared edges count once: sample points lie strictly inside)."""
+    n = OVERLAP_GRID
+    counts = np.zeros((n, n), dtype=np.int32)
+    # Tiled coordinates are folded back into [0, 1] so repeats show up as overlaps.
+    folded = np.where((uv < 0.0) | (uv > 1.0), np.mod(uv, 1.0), uv)
+    t = folded[tris] * n
+    lo = np.clip(np.floor(t.min(axis=1)).astype(int), 0, n - 1)
+    hi = np.clip(np.ceil(t.max(axis=1)).astype(int), 0, n)
+    for k in range(len(tris)):
+        (x0, y0), (x1, y1) = lo[k], hi[k]
+        if x1 <= x0 or y1 <= y0:
+            continue
+        ys, xs = np.mgrid[y0:y1, x0:x1] + 0.5
+        a, b, c = t[k]
+        d = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        if abs(d) < 1e-12:
+            continue
+        w1 = ((xs - a[0]) * (c[1] - a[1]) - (ys - a[1]) * (c[0] - a[0])) / d
+        w2 = ((b[0] - a[0]) * (ys - a[1]) - (b[1] - a[1]) * (xs - a[0])) / d
+        inside = (w1 > 1e-6) & (w2 > 1e-6) & (w1 + w2 < 1 - 1e-6)
+        counts[y0:y1, x0:x1] += inside
+    covered = (counts > 0).sum()
+    return float((counts > 1).sum() / covered) if covered else 0.0
+
+
+def reatlas(positions: NDArray, indices: NDArray, normals: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """New unique UVs from xatlas, with gutters between charts; returns (positions, normals, uvs,
+    indices) with vertices split along the new seams."""
+    import xatlas
+
+    atlas = xatlas.Atlas()
+    atlas.add_mesh(positions.astype(np.float32), indices.astype(np.uint32), normals.astype(np.float32))
+    pack = xatlas.PackOptions()
+    pack.padding = ATLAS_PADDING
+    pack.resolution = ATLAS_RESOLUTION
+    pack.bilinear = True
+    atlas.generate(xatlas.ChartOptions(), pack)
+    vmapping, new_indices, uvs = atlas[0] if hasattr(atlas, "__getitem__") else atlas.get_mesh(0)
+    return positions[vmapping], normals[vmapping], uvs, new_indices
+
+
+def vertex_normals(positions: NDArray, indices: NDArray) -> NDArray[np.float64]:
+    """Area-weighted vertex normals of a triangle mesh."""
+    p = np.asarray(positions, dtype=np.float64)
+    tri = p[np.asarray(indices)]
+    face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normals = np.zeros_like(p)
+    for corner in range(3):
+        np.add.at(normals, np.asarray(indices)[:, corner], face)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.where(length > 1e-30, normals / np.maximum(length, 1e-30), [[0.0, 1.0, 0.0]])
+
+
+def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
+    """Load a triangle mesh file; re-atlas it when its UVs are missing, tiled or overlapping."""
+    import trimesh
+
+    path = Path(path)
+    try:
+        loaded = trimesh.load(path, force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many types for unreadable files
+        raise DentdemoError(f"{path}: cannot load mesh ({exc})") from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise DentdemoError(f"{path}: no triangles found")
+    positions = np.asarray(loaded.vertices, dtype=np.float64) * scale
+    indices = np.asarray(loaded.faces, dtype=np.uint32)
+    if not np.isfinite(positions).all():
+        raise DentdemoError(f"{path}: vertex positions are not finite")
+    normals = vertex_normals(positions, indices)
+    visual_uv = getattr(getattr(loaded, "visual", None), "uv", None)
+    uvs = None if visual_uv is None else np.asarray(visual_uv, dtype=np.float64)
+    report = check_uvs(uvs, indices)
+    if not report.ok:
+        warnings.warn(f"{path}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2)
+        positions, normals, uvs, indices = reatlas(positions, indices, normals)
+    return Mesh(path.stem, positions, normals, uvs, indices, curved=True)

@@ -1,0 +1,71 @@
+"""`dentdemo indent` end to end, and the exact round trip of exported maps."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from carve_helpers import heights, release, setup
+from PIL import Image
+
+from dentdemo.carve.carver import Carver
+from dentdemo.carve.surface import export_maps, import_maps
+
+
+def test_indent_reports_the_cap_error(tmp_path):
+    out = tmp_path / "press"
+    result = subprocess.run(
+        [sys.executable, "-m", "dentdemo", "indent", "--tool", "sphere", "--tool-size", "0.05",
+         "--target", "plate", "--target-size", "1", "--depth", "0.01", "--map-size", "1024",
+         "--out", str(out)],
+        capture_output=True, text=True,
+    )
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["cap"]["rms_error_rel"] < 0.02
+    assert summary["max_depth_m"] == pytest.approx(0.01, rel=0.01)
+    target = np.load(out / "target_height.npy")
+    assert target.dtype == np.float32 and target.shape == (1024, 1024)
+    assert np.load(out / "tool_height.npy").max() == 0.0
+    png = Image.open(out / "target_height.png")
+    assert png.mode.startswith("I") and png.size == (1024, 1024)
+    grey = np.asarray(png)
+    assert grey.max() == 65535 and grey.min() < 65535
+    assert Image.open(out / "target_normal.png").size == (1024, 1024)
+    # Footprint radius matches sqrt(2 R d - d^2) = 30 mm within 1.5 texels.
+    assert summary["footprint_radius_m"] == pytest.approx(0.03, abs=1.5 / 1024)
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["--depth", "-1"], "--depth"),
+    (["--depth", "nan"], "--depth"),
+    (["--depth", "0.01", "--tool-size", "0"], "--tool-size"),
+    (["--depth", "0.01", "--map-size", "3"], "--map-size"),
+    (["--depth", "0.01", "--normal", "0", "0", "0"], "--normal"),
+])
+def test_indent_bad_arguments(tmp_path, args, fragment):
+    result = subprocess.run([sys.executable, "-m", "dentdemo", "indent", *args, "--out", str(tmp_path)],
+                            capture_output=True, text=True)
+    assert result.returncode == 1
+    assert fragment in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+def test_export_import_round_trip_is_exact(gl, tmp_path):
+    s = setup(gl, map_size=256)
+    carver = Carver(gl)
+    carver.carve(s.target, s.tool, s.contact, 0.007)
+    path = tmp_path / "maps.npz"
+    export_maps(gl, s.target.maps, path)
+    before_h = heights(gl, s.target)
+    before_n = gl.read(s.target.maps.normal)
+    fresh = setup(gl, map_size=256)
+    import_maps(gl, fresh.target.maps, path)
+    np.testing.assert_array_equal(heights(gl, fresh.target), before_h)
+    np.testing.assert_array_equal(gl.read(fresh.target.maps.normal), before_n)
+    # A carve on the imported maps continues from the imported dent.
+    carver.carve(fresh.target, fresh.tool, fresh.contact, 0.007)
+    np.testing.assert_allclose(heights(gl, fresh.target), before_h, atol=1e-6)
+    carver.release()
+    release(s)
+    release(fresh)
