@@ -6,5 +6,6 @@ import argparse
 from collections.abc import Callable
 
 from dentdemo.app import indent
+from dentdemo.physics import simulate
 
-REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [indent.register]
+REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [indent.register, simulate.register]

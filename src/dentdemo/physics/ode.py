@@ -16,7 +16,7 @@ from dentdemo.errors import PhysicsLibraryError
 
 #: Every ODE function dentdemo calls.
 REQUIRED_SYMBOLS = (
-    "dInitODE2", "dCloseODE", "dGetConfiguration",
+    "dInitODE2", "dCloseODE", "dGetConfiguration", "dRandSetSeed",
     "dWorldCreate", "dWorldDestroy", "dWorldSetGravity", "dWorldStep", "dWorldQuickStep",
     "dWorldSetQuickStepNumIterations", "dWorldSetCFM", "dWorldSetERP",
     "dWorldSetContactSurfaceLayer", "dWorldSetContactMaxCorrectingVel",
@@ -33,7 +33,7 @@ REQUIRED_SYMBOLS = (
     "dGeomTriMeshDataBuildDouble",
     "dGeomDestroy", "dGeomSetBody", "dGeomGetBody", "dGeomSetPosition", "dGeomSetQuaternion",
     "dGeomGetPosition", "dGeomGetQuaternion", "dGeomSetData", "dGeomGetData",
-    "dGeomGetClass", "dGeomSetCategoryBits", "dGeomSetCollideBits",
+    "dGeomGetClass", "dGeomSetOffsetPosition",
 )
 
 

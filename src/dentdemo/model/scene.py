@@ -1,0 +1,261 @@
+"""Scene files (assets/scenes/*.toml): bodies, camera and light, validated as strictly as the
+materials. Pure data: no OpenGL, no ODE.
+
+Units: metres, kilograms, seconds; rotations are XYZ Euler angles in degrees (applied X, then Y,
+then Z, about the world axes); velocities in m/s and rad/s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dentdemo.errors import ConfigError
+from dentdemo.model.materials import Material, MaterialLibrary
+from dentdemo.model.validate import TableReader, load_toml
+
+SHAPE_KINDS = ("sphere", "box", "capsule", "cylinder", "plane", "plate", "mesh")
+DEFAULT_TEXELS_PER_METRE = 256.0
+
+
+@dataclass(frozen=True)
+class ShapeSpec:
+    """A collision and render shape. Sizes in metres.
+
+    sphere: radius; box: size (x, y, z full extents); capsule, cylinder: radius and length along
+    local Z; plane: the static ground y = 0 (infinite, never dented); plate: a box of side x side x
+    thickness whose top face (local y = 0) carries the dentable map; mesh: a triangle mesh file.
+    """
+
+    kind: str
+    radius: float = 0.0
+    size: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    length: float = 0.0
+    side: float = 0.0
+    thickness: float = 0.0
+    mesh_path: str = ""
+    scale: float = 1.0
+
+    def volume(self) -> float:
+        """m^3 (0 for the plane; a mesh's volume comes from the mesh itself)."""
+        r = self.radius
+        if self.kind == "sphere":
+            return 4.0 / 3.0 * math.pi * r**3
+        if self.kind == "box":
+            return float(np.prod(self.size))
+        if self.kind == "capsule":
+            return math.pi * r * r * self.length + 4.0 / 3.0 * math.pi * r**3
+        if self.kind == "cylinder":
+            return math.pi * r * r * self.length
+        if self.kind == "plate":
+            return self.side * self.side * self.thickness
+        return 0.0
+
+    def bounding_radius(self) -> float:
+        if self.kind == "sphere":
+            return self.radius
+        if self.kind == "box":
+            return float(np.linalg.norm(self.size) / 2)
+        if self.kind in ("capsule", "cylinder"):
+            return self.length / 2 + self.radius if self.kind == "capsule" else math.hypot(self.length / 2, self.radius)
+        if self.kind == "plate":
+            return math.hypot(self.side / math.sqrt(2), self.thickness)
+        return math.inf
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """One body of a scene."""
+
+    id: str
+    shape: ShapeSpec
+    material: Material
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: Orientation quaternion (w, x, y, z).
+    orientation: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    static: bool = False
+    #: Surface-map density, texels per metre.
+    texels_per_metre: float = DEFAULT_TEXELS_PER_METRE
+    #: False: the body takes no dents (its maps are never carved).
+    dentable: bool = True
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    eye: tuple[float, float, float] = (2.2, 1.6, 2.6)
+    target: tuple[float, float, float] = (0.0, 0.15, 0.0)
+    fov_deg: float = 45.0
+
+
+@dataclass(frozen=True)
+class LightSpec:
+    #: Direction the light travels (world), normalised when used.
+    direction: tuple[float, float, float] = (-0.4, -1.0, -0.3)
+    colour: tuple[float, float, float] = (1.0, 0.97, 0.9)
+    intensity: float = 3.0
+    ambient: float = 0.25
+
+
+@dataclass(frozen=True)
+class PhysicsSpec:
+    gravity: tuple[float, float, float] = (0.0, -9.81, 0.0)
+    #: Frame step, s; each is split into `substeps` ODE steps.
+    dt: float = 1.0 / 60.0
+    substeps: int = 8
+    #: Below this approach speed (m/s) a contact is resting, not an impact.
+    impact_speed_min: float = 0.1
+    solver_iterations: int = 40
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    source: str
+    bodies: tuple[BodySpec, ...]
+    camera: CameraSpec = field(default_factory=CameraSpec)
+    light: LightSpec = field(default_factory=LightSpec)
+    physics: PhysicsSpec = field(default_factory=PhysicsSpec)
+
+
+def euler_deg_to_quat(angles: tuple[float, float, float]) -> tuple[float, float, float, float]:
+    """XYZ Euler angles in degrees (X first, about world axes) to a unit quaternion (w, x, y, z)."""
+    out = np.array([1.0, 0.0, 0.0, 0.0])
+    for axis, angle in enumerate(angles):
+        half = math.radians(angle) / 2
+        q = np.zeros(4)
+        q[0] = math.cos(half)
+        q[1 + axis] = math.sin(half)
+        out = quat_mul(q, out)
+    return tuple(float(x) for x in out / np.linalg.norm(out))
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of quaternions (w, x, y, z)."""
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+    ])
+
+
+def load_scene(path: Path, materials: MaterialLibrary) -> Scene:
+    """Read and validate a scene file."""
+    source = str(path)
+    data = load_toml(Path(path))
+    for key in data:
+        if key not in ("scene", "camera", "light", "physics", "body"):
+            raise ConfigError(source, f"[{key}]", "unknown table (expected scene, camera, light, physics, body)")
+    scene_t = TableReader(source, "scene", data.get("scene", {}))
+    name = scene_t.string("name", Path(path).stem)
+    scene_t.finish()
+    camera = _camera(source, data.get("camera", {}))
+    light = _light(source, data.get("light", {}))
+    physics = _physics(source, data.get("physics", {}))
+    raw_bodies = data.get("body", [])
+    if not isinstance(raw_bodies, list):
+        raise ConfigError(source, "[body]", "bodies are an array of tables: write [[body]]")
+    bodies = []
+    seen: set[str] = set()
+    for index, table in enumerate(raw_bodies):
+        body = _body(source, index, table, materials)
+        if body.id in seen:
+            raise ConfigError(source, f"[[body]] #{index + 1} key 'id' = {body.id!r}", "duplicate id")
+        seen.add(body.id)
+        bodies.append(body)
+    return Scene(name, source, tuple(bodies), camera, light, physics)
+
+
+def _camera(source: str, table: Any) -> CameraSpec:
+    r = TableReader(source, "camera", table)
+    d = CameraSpec()
+    spec = CameraSpec(r.vector("eye", d.eye), r.vector("target", d.target),
+                      r.number("fov_deg", d.fov_deg, min_value=1.0, max_value=170.0))
+    r.finish()
+    if np.allclose(spec.eye, spec.target):
+        raise ConfigError(source, "[camera]", "eye and target must differ")
+    return spec
+
+
+def _light(source: str, table: Any) -> LightSpec:
+    r = TableReader(source, "light", table)
+    d = LightSpec()
+    direction = r.vector("direction", d.direction)
+    if np.linalg.norm(direction) < 1e-9:
+        raise r.fail("direction", "must not be zero")
+    spec = LightSpec(direction, r.vector("colour", d.colour),
+                     r.number("intensity", d.intensity, min_value=0.0),
+                     r.number("ambient", d.ambient, min_value=0.0, max_value=1.0))
+    r.finish()
+    return spec
+
+
+def _physics(source: str, table: Any) -> PhysicsSpec:
+    r = TableReader(source, "physics", table)
+    d = PhysicsSpec()
+    spec = PhysicsSpec(
+        gravity=r.vector("gravity", d.gravity),
+        dt=r.number("dt", d.dt, min_value=1e-5, max_value=0.1),
+        substeps=int(r.number("substeps", d.substeps, min_value=1, max_value=64)),
+        impact_speed_min=r.number("impact_speed_min", d.impact_speed_min, min_value=0.0),
+        solver_iterations=int(r.number("solver_iterations", d.solver_iterations, min_value=1, max_value=1000)),
+    )
+    r.finish()
+    return spec
+
+
+def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> BodySpec:
+    label = table.get("id", f"#{index + 1}") if isinstance(table, dict) else f"#{index + 1}"
+    r = TableReader(source, f"body.{label}", table)
+    body_id = r.string("id")
+    if not body_id:
+        raise r.fail("id", "must not be empty")
+    kind = r.string("shape", choices=SHAPE_KINDS)
+    positive = {"min_value": 0.0, "min_inclusive": False}
+    shape: ShapeSpec
+    if kind == "sphere":
+        shape = ShapeSpec(kind, radius=r.number("radius", **positive))
+    elif kind == "box":
+        size = r.vector("size", None)
+        if min(size) <= 0:
+            raise r.fail("size", "must be positive")
+        shape = ShapeSpec(kind, size=size)
+    elif kind in ("capsule", "cylinder"):
+        shape = ShapeSpec(kind, radius=r.number("radius", **positive), length=r.number("length", **positive))
+    elif kind == "plate":
+        shape = ShapeSpec(kind, side=r.number("side", **positive), thickness=r.number("thickness", 0.02, **positive))
+    elif kind == "mesh":
+        mesh = r.string("mesh")
+        path = (Path(source).parent / mesh) if not Path(mesh).is_absolute() else Path(mesh)
+        if not path.is_file():
+            raise r.fail("mesh", f"no such file: {path}")
+        shape = ShapeSpec(kind, mesh_path=str(path), scale=r.number("scale", 1.0, **positive))
+    else:
+        shape = ShapeSpec("plane")
+    material = materials.get(r.string("material"), source, f"[body.{label}] key 'material'")
+    static = r.boolean("static", kind == "plane")
+    if kind == "plane" and not static:
+        raise r.fail("static", "a plane is always static")
+    angles = r.vector("rotation_deg", (0.0, 0.0, 0.0))
+    spec = BodySpec(
+        id=body_id,
+        shape=shape,
+        material=material,
+        position=r.vector("position", (0.0, 0.0, 0.0)),
+        orientation=euler_deg_to_quat(angles),
+        velocity=r.vector("velocity", (0.0, 0.0, 0.0)),
+        angular_velocity=r.vector("angular_velocity", (0.0, 0.0, 0.0)),
+        static=static,
+        texels_per_metre=r.number("texels_per_metre", DEFAULT_TEXELS_PER_METRE, min_value=1.0, max_value=16384.0),
+        dentable=r.boolean("dentable", kind != "plane"),
+    )
+    r.finish()
+    return spec

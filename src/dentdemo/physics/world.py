@@ -1,0 +1,367 @@
+"""The physics world over ODE: bodies, shapes, contact joints and impact events.
+
+World space: metres, right-handed, +Y up. Quaternions are (w, x, y, z) as ODE has them. A body's
+pose is that of its own origin (for a plate: the centre of its top face); ODE's body sits at the
+centre of mass, `com_offset` (body-local) away.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.model.impulse import pair_impulses
+from dentdemo.model.scene import BodySpec, PhysicsSpec
+from dentdemo.physics.ode import ode
+
+MAX_CONTACTS = 8
+#: Constraint force mixing: near-rigid contacts. A soft CFM damps bounces more the smaller the
+#: step, which would make restitution depend on dt.
+CONTACT_CFM = 1e-9
+_GEOM_PLANE = 4  # dPlaneClass
+
+
+@dataclass
+class Impact:
+    """One impact of a touching pair in one step. The normal points from body A towards body B;
+    B presses into A along -normal. Impulses in N*s (paper eq. 2), velocities in m/s at the
+    contact point just before the step."""
+
+    step: int
+    time: float
+    body_a: str
+    body_b: str
+    point: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    depth: float
+    vel_a: NDArray[np.float64]
+    vel_b: NDArray[np.float64]
+    mass_a: float  # kg; inf for a static body
+    mass_b: float
+    eps_a: float
+    eps_b: float
+    j: float
+    j_elastic: float
+    pose_a: tuple[NDArray[np.float64], NDArray[np.float64]]  # (position, quaternion w x y z)
+    pose_b: tuple[NDArray[np.float64], NDArray[np.float64]]
+
+    @property
+    def approach_speed(self) -> float:
+        return float(-(self.normal @ (self.vel_b - self.vel_a)))
+
+    def as_dict(self) -> dict:
+        def mass(m: float) -> float | None:
+            return None if math.isinf(m) else m
+
+        return {
+            "step": self.step,
+            "time": round(self.time, 9),
+            "body_a": self.body_a,
+            "body_b": self.body_b,
+            "point": self.point.tolist(),
+            "normal": self.normal.tolist(),
+            "depth": self.depth,
+            "vel_a": self.vel_a.tolist(),
+            "vel_b": self.vel_b.tolist(),
+            "mass_a": mass(self.mass_a),
+            "mass_b": mass(self.mass_b),
+            "eps_a": self.eps_a,
+            "eps_b": self.eps_b,
+            "approach_speed": self.approach_speed,
+            "j": self.j,
+            "j_elastic": self.j_elastic,
+            "pose_a": {"position": self.pose_a[0].tolist(), "quaternion": self.pose_a[1].tolist()},
+            "pose_b": {"position": self.pose_b[0].tolist(), "quaternion": self.pose_b[1].tolist()},
+        }
+
+
+@dataclass
+class _Body:
+    spec: BodySpec
+    geom: object
+    body: object | None  # None for static
+    mass: float  # kg, inf when static
+    com_offset: NDArray[np.float64]
+    keep_alive: list = field(default_factory=list)  # ctypes buffers ODE points into
+
+
+def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    w, x, y, z = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def _addr(ptr: object) -> int:
+    return ctypes.cast(ptr, ctypes.c_void_p).value or 0
+
+
+class PhysicsWorld:
+    """A deterministic ODE world stepped at a fixed dt with substeps."""
+
+    def __init__(self, spec: PhysicsSpec) -> None:
+        self.spec = spec
+        ode.dRandSetSeed(0)  # QuickStep reorders constraints randomly: same seed, same run
+        self.world = ode.dWorldCreate()
+        ode.dWorldSetGravity(self.world, *spec.gravity)
+        ode.dWorldSetERP(self.world, 0.2)
+        ode.dWorldSetCFM(self.world, CONTACT_CFM)
+        ode.dWorldSetContactSurfaceLayer(self.world, 1e-4)
+        ode.dWorldSetContactMaxCorrectingVel(self.world, 0.5)
+        ode.dWorldSetQuickStepNumIterations(self.world, spec.solver_iterations)
+        self.space = ode.dSimpleSpaceCreate(None)  # insertion order: deterministic
+        self.contact_group = ode.dJointGroupCreate(0)
+        self.bodies: dict[str, _Body] = {}
+        self._by_geom: dict[int, _Body] = {}
+        self.step_index = 0
+        self.time = 0.0
+        self.removed: list[str] = []
+        self._contacts = (ode.dContact * MAX_CONTACTS)()
+        self._callback = ode.dNearCallback(self._near)
+        self._pending: dict[tuple[str, str], Impact] = {}
+        self._substep = 0
+        self._vel_buffer = (ode.dReal * 4)()
+
+    # -- bodies --------------------------------------------------------------------------------
+    def add_body(self, spec: BodySpec, mesh_arrays: tuple[NDArray, NDArray] | None = None) -> None:
+        """Add a body; a `mesh` shape needs (positions (n, 3) m, indices (m, 3)) in body space."""
+        if spec.id in self.bodies:
+            raise ValueError(f"duplicate body id '{spec.id}'")
+        shape = spec.shape
+        keep: list = []
+        com = np.zeros(3)
+        if shape.kind == "plane":
+            geom = ode.dCreatePlane(self.space, 0.0, 1.0, 0.0, spec.position[1])
+        elif shape.kind == "sphere":
+            geom = ode.dCreateSphere(self.space, shape.radius)
+        elif shape.kind == "box":
+            geom = ode.dCreateBox(self.space, *shape.size)
+        elif shape.kind == "plate":
+            geom = ode.dCreateBox(self.space, shape.side, shape.thickness, shape.side)
+            com = np.array([0.0, -shape.thickness / 2, 0.0])
+        elif shape.kind == "capsule":
+            geom = ode.dCreateCapsule(self.space, shape.radius, shape.length)
+        elif shape.kind == "cylinder":
+            geom = ode.dCreateCylinder(self.space, shape.radius, shape.length)
+        elif shape.kind == "mesh":
+            if mesh_arrays is None:
+                raise ValueError(f"body '{spec.id}': a mesh shape needs its triangles")
+            geom, keep = self._trimesh(*mesh_arrays)
+        else:
+            raise ValueError(f"unknown shape '{shape.kind}'")
+        record = _Body(spec, geom, None, math.inf, com, keep)
+        if not spec.static and shape.kind != "plane":
+            body = ode.dBodyCreate(self.world)
+            mass = ode.dMass()
+            self._set_mass(mass, spec, geom)
+            if shape.kind == "mesh":
+                com = np.array([mass.c[0], mass.c[1], mass.c[2]])
+                ode.dMassTranslate(ctypes.byref(mass), *(-com))
+            if not (math.isfinite(mass.mass) and mass.mass > 0):
+                ode.dGeomDestroy(geom)
+                ode.dBodyDestroy(body)
+                raise ValueError(f"body '{spec.id}': mass {mass.mass} kg is not positive and finite")
+            ode.dBodySetMass(body, ctypes.byref(mass))
+            ode.dGeomSetBody(geom, body)
+            if shape.kind == "mesh" and np.any(com != 0):
+                ode.dGeomSetOffsetPosition(geom, *(-com))
+            record.body, record.mass, record.com_offset = body, float(mass.mass), com
+            ode.dBodySetLinearVel(body, *spec.velocity)
+            ode.dBodySetAngularVel(body, *spec.angular_velocity)
+        self.bodies[spec.id] = record
+        self._by_geom[_addr(geom)] = record
+        if shape.kind != "plane":
+            self.set_pose(spec.id, np.asarray(spec.position), np.asarray(spec.orientation))
+
+    def _set_mass(self, mass: object, spec: BodySpec, geom: object) -> None:
+        rho, s = spec.material.density, spec.shape
+        ref = ctypes.byref(mass)
+        if s.kind == "sphere":
+            ode.dMassSetSphere(ref, rho, s.radius)
+        elif s.kind == "box":
+            ode.dMassSetBox(ref, rho, *s.size)
+        elif s.kind == "plate":
+            ode.dMassSetBox(ref, rho, s.side, s.thickness, s.side)
+        elif s.kind == "capsule":
+            ode.dMassSetCapsule(ref, rho, 3, s.radius, s.length)
+        elif s.kind == "cylinder":
+            ode.dMassSetCylinder(ref, rho, 3, s.radius, s.length)
+        else:
+            ode.dMassSetTrimesh(ref, rho, geom)
+
+    def _trimesh(self, positions: NDArray, indices: NDArray) -> tuple[object, list]:
+        verts = np.ascontiguousarray(positions, dtype=np.float64)
+        tris = np.ascontiguousarray(indices, dtype=np.uint32)
+        data = ode.dGeomTriMeshDataCreate()
+        ode.dGeomTriMeshDataBuildDouble(
+            data, verts.ctypes.data_as(ctypes.c_void_p), 3 * 8, len(verts),
+            tris.ctypes.data_as(ctypes.c_void_p), tris.size, 3 * 4,
+        )
+        null = (ode.dTriCallback(), ode.dTriArrayCallback(), ode.dTriRayCallback())
+        geom = ode.dCreateTriMesh(self.space, data, *null)
+        return geom, [verts, tris, data]
+
+    def remove_body(self, body_id: str) -> None:
+        record = self.bodies.pop(body_id)
+        self._by_geom.pop(_addr(record.geom), None)
+        ode.dGeomDestroy(record.geom)
+        if record.body is not None:
+            ode.dBodyDestroy(record.body)
+        if record.keep_alive:
+            ode.dGeomTriMeshDataDestroy(record.keep_alive[2])
+
+    def set_pose(self, body_id: str, position: NDArray, quaternion: NDArray) -> None:
+        record = self.bodies[body_id]
+        q = np.asarray(quaternion, dtype=np.float64)
+        q = q / np.linalg.norm(q)
+        centre = np.asarray(position, dtype=np.float64) + quat_to_matrix(q) @ record.com_offset
+        qd = (ode.dReal * 4)(*q)
+        if record.body is not None:
+            ode.dBodySetPosition(record.body, *centre)
+            ode.dBodySetQuaternion(record.body, qd)
+        else:
+            ode.dGeomSetPosition(record.geom, *centre)
+            ode.dGeomSetQuaternion(record.geom, qd)
+
+    def set_velocity(self, body_id: str, linear: NDArray, angular: NDArray = (0.0, 0.0, 0.0)) -> None:
+        record = self.bodies[body_id]
+        if record.body is not None:
+            ode.dBodySetLinearVel(record.body, *np.asarray(linear, dtype=np.float64))
+            ode.dBodySetAngularVel(record.body, *np.asarray(angular, dtype=np.float64))
+
+    def pose(self, body_id: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(position of the body's origin, quaternion w x y z), world."""
+        record = self.bodies[body_id]
+        if record.spec.shape.kind == "plane":
+            return np.asarray(record.spec.position, dtype=np.float64), np.array([1.0, 0, 0, 0])
+        if record.body is not None:
+            p = ode.dBodyGetPosition(record.body)
+            q = ode.dBodyGetQuaternion(record.body)
+        else:
+            p = ode.dGeomGetPosition(record.geom)
+            q = (ode.dReal * 4)()
+            ode.dGeomGetQuaternion(record.geom, q)
+        quat = np.array([q[0], q[1], q[2], q[3]], dtype=np.float64)
+        centre = np.array([p[0], p[1], p[2]], dtype=np.float64)
+        return centre - quat_to_matrix(quat) @ record.com_offset, quat
+
+    def velocity(self, body_id: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        record = self.bodies[body_id]
+        if record.body is None:
+            return np.zeros(3), np.zeros(3)
+        v = ode.dBodyGetLinearVel(record.body)
+        w = ode.dBodyGetAngularVel(record.body)
+        return np.array([v[0], v[1], v[2]]), np.array([w[0], w[1], w[2]])
+
+    def model_matrix(self, body_id: str) -> NDArray[np.float64]:
+        """World from body-local 4x4 (column vectors)."""
+        position, quat = self.pose(body_id)
+        m = np.eye(4)
+        m[:3, :3] = quat_to_matrix(quat)
+        m[:3, 3] = position
+        return m
+
+    # -- stepping ------------------------------------------------------------------------------
+    def step(self) -> list[Impact]:
+        """Advance one frame step (spec.dt) in spec.substeps ODE steps; return its impacts, at most
+        one per touching pair (the one with the largest j_elastic), sorted by body ids."""
+        self._pending = {}
+        sub_dt = self.spec.dt / self.spec.substeps
+        for sub in range(self.spec.substeps):
+            self._substep = sub
+            ode.dSpaceCollide(self.space, None, self._callback)
+            ode.dWorldQuickStep(self.world, sub_dt)
+            ode.dJointGroupEmpty(self.contact_group)
+            self.time += sub_dt
+        self._drop_non_finite()
+        self.step_index += 1
+        return [self._pending[k] for k in sorted(self._pending)]
+
+    def _drop_non_finite(self) -> None:
+        for body_id in list(self.bodies):
+            record = self.bodies[body_id]
+            if record.body is None:
+                continue
+            p = ode.dBodyGetPosition(record.body)
+            q = ode.dBodyGetQuaternion(record.body)
+            v = ode.dBodyGetLinearVel(record.body)
+            w = ode.dBodyGetAngularVel(record.body)
+            total = p[0] + p[1] + p[2] + q[0] + q[1] + q[2] + q[3] + v[0] + v[1] + v[2] + w[0] + w[1] + w[2]
+            if not math.isfinite(total):
+                warnings.warn(f"body '{body_id}' became non-finite at t = {self.time:.4f} s; removed",
+                              RuntimeWarning, stacklevel=3)
+                self.remove_body(body_id)
+                self.removed.append(body_id)
+
+    def _near(self, _data: object, g1: object, g2: object) -> None:
+        r1 = self._by_geom.get(_addr(g1))
+        r2 = self._by_geom.get(_addr(g2))
+        if r1 is None or r2 is None or (r1.body is None and r2.body is None):
+            return
+        contacts = self._contacts
+        count = ode.dCollide(g1, g2, MAX_CONTACTS, ctypes.pointer(contacts[0].geom),
+                             ctypes.sizeof(ode.dContact))
+        if count <= 0:
+            return
+        m1, m2 = r1.spec.material, r2.spec.material
+        mode = ode.dContactBounce | ode.dContactSoftCFM | ode.dContactApprox1
+        deepest = max(range(count), key=lambda i: contacts[i].geom.depth)
+        for i in range(count):
+            c = contacts[i]
+            c.surface.mode = mode
+            c.surface.mu = math.sqrt(m1.friction * m2.friction)
+            c.surface.bounce = min(m1.restitution, m2.restitution)
+            c.surface.bounce_vel = self.spec.impact_speed_min
+            c.surface.soft_cfm = CONTACT_CFM
+        # ODE's normal points into g1: from body A = owner of g2 towards body B = owner of g1.
+        self._record(r2, r1, contacts[deepest].geom)
+        for i in range(count):
+            joint = ode.dJointCreateContact(self.world, self.contact_group, ctypes.byref(contacts[i]))
+            ode.dJointAttach(joint, r1.body, r2.body)
+
+    def _record(self, a: _Body, b: _Body, geom: object) -> None:
+        px, py, pz = geom.pos[0], geom.pos[1], geom.pos[2]
+        nx, ny, nz = geom.normal[0], geom.normal[1], geom.normal[2]
+        va, vb = self._point_velocity(a, px, py, pz), self._point_velocity(b, px, py, pz)
+        approach = -(nx * (vb[0] - va[0]) + ny * (vb[1] - va[1]) + nz * (vb[2] - va[2]))
+        if approach <= self.spec.impact_speed_min:
+            return  # resting or separating: not an impact
+        point = np.array([px, py, pz], dtype=np.float64)
+        normal = np.array([nx, ny, nz], dtype=np.float64)
+        va, vb = np.array(va, dtype=np.float64), np.array(vb, dtype=np.float64)
+        inv_a = 0.0 if a.body is None else 1.0 / a.mass
+        inv_b = 0.0 if b.body is None else 1.0 / b.mass
+        j, j1 = pair_impulses(normal, va, vb, inv_a, inv_b, a.spec.material.restitution,
+                              b.spec.material.restitution)
+        key = (a.spec.id, b.spec.id)
+        if key in self._pending and self._pending[key].j_elastic >= float(j1):
+            return
+        self._pending[key] = Impact(
+            step=self.step_index, time=self.time, body_a=a.spec.id, body_b=b.spec.id,
+            point=point, normal=normal, depth=float(geom.depth), vel_a=va, vel_b=vb,
+            mass_a=a.mass, mass_b=b.mass, eps_a=a.spec.material.restitution,
+            eps_b=b.spec.material.restitution, j=float(j), j_elastic=float(j1),
+            pose_a=self.pose(a.spec.id), pose_b=self.pose(b.spec.id),
+        )
+
+    def _point_velocity(self, record: _Body, x: float, y: float, z: float) -> tuple[float, float, float]:
+        """Velocity of the body's material point at world (x, y, z), m/s."""
+        if record.body is None:
+            return (0.0, 0.0, 0.0)
+        out = self._vel_buffer
+        ode.dBodyGetPointVel(record.body, x, y, z, out)
+        return (out[0], out[1], out[2])
+
+    def close(self) -> None:
+        for body_id in list(self.bodies):
+            self.remove_body(body_id)
+        ode.dJointGroupDestroy(self.contact_group)
+        ode.dSpaceDestroy(self.space)
+        ode.dWorldDestroy(self.world)

@@ -1,0 +1,271 @@
+"""Physics against its oracles: bounce heights, eq. 2 for hand-computed collisions, resting bodies,
+determinism, and bad input."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dentdemo.errors import ConfigError
+from dentdemo.model.materials import load_materials
+from dentdemo.model.scene import BodySpec, PhysicsSpec, ShapeSpec, load_scene
+from dentdemo.physics.world import PhysicsWorld
+
+ROOT = Path(__file__).resolve().parents[1]
+BALL_DROP = ROOT / "assets" / "scenes" / "ball_drop.toml"
+LIB = load_materials()
+G = 9.81
+
+
+def _material(name: str, **changes):
+    return dataclasses.replace(LIB.get(name), **changes)
+
+
+def _drop(eps: float, height: float, dt: float, substeps: int = 4) -> tuple[float, float]:
+    """Drop a ball from `height` (lowest point) onto the ground; return (rebound peak, impact speed)."""
+    mat = _material("steel", restitution=eps)
+    world = PhysicsWorld(PhysicsSpec(dt=dt, substeps=substeps))
+    world.add_body(BodySpec("ground", ShapeSpec("plane"), mat, static=True))
+    world.add_body(BodySpec("ball", ShapeSpec("sphere", radius=0.05), mat, position=(0, height + 0.05, 0)))
+    impacts, peak, rising = [], 0.0, False
+    for _ in range(int(4.0 / dt)):
+        impacts += world.step()
+        vy = world.velocity("ball")[0][1]
+        if impacts and vy > 0:
+            rising = True
+        if rising:
+            peak = max(peak, world.pose("ball")[0][1] - 0.05)
+            if vy < 0:
+                break
+    world.close()
+    return peak, impacts[0].approach_speed
+
+
+@pytest.mark.parametrize("eps", [0.2, 0.5, 0.8])
+@pytest.mark.parametrize("dt,substeps", [(1 / 240, 4), (1 / 960, 4)])
+def test_bounce_height_is_eps_squared(eps, dt, substeps):
+    h = 1.0
+    peak, speed = _drop(eps, h, dt, substeps)
+    # The contact is found up to one substep late (the ball has sunk up to v*dt_sub), the bounce is
+    # applied within a substep in which gravity still acts, and the rebound starts from the sunk
+    # position: each costs at most one substep of travel at impact speed.
+    tolerance = 3 * speed * dt / substeps
+    assert abs(peak - eps**2 * h) <= tolerance
+    assert speed == pytest.approx(math.sqrt(2 * G * h), abs=G * dt)
+
+
+def test_eq2_head_on_two_dynamic_spheres():
+    steel, alu = LIB.get("steel"), LIB.get("aluminium")
+    world = PhysicsWorld(PhysicsSpec(gravity=(0, 0, 0), dt=1 / 240, substeps=4))
+    world.add_body(BodySpec("a", ShapeSpec("sphere", radius=0.05), steel, position=(0, 1, 0), velocity=(1, 0, 0)))
+    world.add_body(BodySpec("b", ShapeSpec("sphere", radius=0.05), alu, position=(0.3, 1, 0), velocity=(-2, 0, 0)))
+    m_a = steel.density * 4 / 3 * math.pi * 0.05**3
+    m_b = alu.density * 4 / 3 * math.pi * 0.05**3
+    impacts = []
+    for _ in range(60):
+        impacts += world.step()
+    assert len(impacts) == 1
+    hit = impacts[0]
+    # By hand: closing speed 3 m/s, eps = min(0.6, 0.5) = 0.5.
+    j_hand = (1 + 0.5) * 3.0 / (1 / m_a + 1 / m_b)
+    assert hit.j == pytest.approx(j_hand, rel=1e-6)
+    assert hit.j_elastic == pytest.approx(2.0 * 3.0 / (1 / m_a + 1 / m_b), rel=1e-6)
+    assert hit.mass_a + hit.mass_b == pytest.approx(m_a + m_b, rel=1e-9)
+    assert abs(hit.normal[0]) == pytest.approx(1.0, abs=1e-9)
+    # Afterwards: momentum conserved; closing speed reversed and scaled by eps.
+    va, vb = world.velocity("a")[0][0], world.velocity("b")[0][0]
+    assert m_a * va + m_b * vb == pytest.approx(m_a * 1 - m_b * 2, abs=1e-6)
+    assert vb - va == pytest.approx(0.5 * 3.0, rel=0.03)
+    world.close()
+
+
+def test_eq2_sphere_on_static_plate():
+    lead = LIB.get("lead")
+    steel = LIB.get("steel")
+    world = PhysicsWorld(PhysicsSpec(dt=1 / 240, substeps=4))
+    world.add_body(BodySpec("plate", ShapeSpec("plate", side=0.5, thickness=0.02), lead, position=(0, 0.02, 0), static=True))
+    world.add_body(BodySpec("ball", ShapeSpec("sphere", radius=0.04), steel, position=(0, 0.02 + 0.04 + 0.8, 0)))
+    impacts = []
+    for _ in range(120):
+        impacts += world.step()
+    hit = impacts[0]
+    assert {hit.body_a, hit.body_b} == {"plate", "ball"}
+    assert hit.body_a == "plate" and hit.normal[1] == pytest.approx(1.0)  # from plate towards ball
+    m = steel.density * 4 / 3 * math.pi * 0.04**3
+    assert math.isinf(hit.mass_a) and hit.mass_b == pytest.approx(m, rel=1e-9)
+    v = hit.approach_speed
+    assert v == pytest.approx(math.sqrt(2 * G * 0.8), abs=G / 240)
+    assert hit.j == pytest.approx((1 + min(lead.restitution, steel.restitution)) * v * m, rel=1e-9)
+    assert hit.j_elastic == pytest.approx(2 * v * m, rel=1e-9)
+    # The reported pose is the ball's at that moment: touching or just inside the plate.
+    assert hit.pose_b[0][1] - 0.04 - 0.02 == pytest.approx(-hit.depth, abs=v / 240 + 1e-3)
+    world.close()
+
+
+def test_resting_ball_produces_no_impacts():
+    steel = LIB.get("steel")
+    world = PhysicsWorld(PhysicsSpec())
+    world.add_body(BodySpec("ground", ShapeSpec("plane"), steel, static=True))
+    world.add_body(BodySpec("ball", ShapeSpec("sphere", radius=0.05), steel, position=(0, 0.051, 0)))
+    for _ in range(60):
+        world.step()
+    later = []
+    for _ in range(600):
+        later += world.step()
+    assert later == []
+    assert world.pose("ball")[0][1] == pytest.approx(0.05, abs=2e-3)
+    world.close()
+
+
+def _ball_drop_world():
+    from dentdemo.physics.simulate import build_world
+
+    return build_world(load_scene(BALL_DROP, LIB))
+
+
+def test_ball_drop_is_deterministic_and_settles():
+    runs = []
+    for _ in range(2):
+        world = _ball_drop_world()
+        log = [json.dumps(i.as_dict(), sort_keys=True) for _ in range(300) for i in world.step()]
+        runs.append((log, {b: world.pose(b)[0].tolist() for b in world.bodies}))
+        world.close()
+    assert runs[0] == runs[1]
+    assert len(runs[0][0]) >= 10
+    # Nothing fell through the ground or a plate.
+    assert all(p[1] > -1e-3 for p in runs[0][1].values())
+
+
+def test_non_finite_body_is_removed_with_a_warning():
+    steel = LIB.get("steel")
+    world = PhysicsWorld(PhysicsSpec(gravity=(0, 0, 0)))
+    world.add_body(BodySpec("ok", ShapeSpec("sphere", radius=0.05), steel, position=(0, 1, 0)))
+    world.add_body(BodySpec("bad", ShapeSpec("sphere", radius=0.05), steel, position=(2, 1, 0)))
+    world.set_velocity("bad", np.array([math.inf, 0.0, 0.0]))
+    with pytest.warns(RuntimeWarning, match="'bad' became non-finite"):
+        world.step()
+    assert "bad" not in world.bodies and world.removed == ["bad"]
+    world.step()
+    assert np.isfinite(world.pose("ok")[0]).all()
+    world.close()
+
+
+def test_bodies_can_be_added_and_removed_while_running():
+    steel = LIB.get("steel")
+    world = PhysicsWorld(PhysicsSpec())
+    world.add_body(BodySpec("ground", ShapeSpec("plane"), steel, static=True))
+    for i in range(5):
+        world.add_body(BodySpec(f"b{i}", ShapeSpec("capsule", radius=0.03, length=0.1), steel, position=(i * 0.2, 0.5, 0)))
+        world.step()
+    world.remove_body("b2")
+    for _ in range(120):
+        world.step()
+    assert set(world.bodies) == {"ground", "b0", "b1", "b3", "b4"}
+    with pytest.raises(ValueError, match="duplicate"):
+        world.add_body(BodySpec("b0", ShapeSpec("sphere", radius=0.1), steel))
+    world.close()
+
+
+SCENE_OK = """
+[[body]]
+id = "ground"
+shape = "plane"
+material = "oak"
+
+[[body]]
+id = "ball"
+shape = "sphere"
+radius = 0.05
+material = "steel"
+position = [0, 1, 0]
+"""
+
+
+@pytest.mark.parametrize("text,expected", [
+    (SCENE_OK.replace("radius = 0.05", "radius = 0"), "[body.ball] key 'radius' = 0: must be > 0"),
+    (SCENE_OK.replace("radius = 0.05", "radius = nan"), "key 'radius' = nan: must be finite"),
+    (SCENE_OK.replace("radius = 0.05", "radius = -1"), "must be > 0"),
+    (SCENE_OK.replace('shape = "sphere"', 'shape = "torus"'), "key 'shape' = 'torus': must be one of"),
+    (SCENE_OK.replace('material = "steel"', 'material = "adamantium"'), "unknown material 'adamantium'"),
+    (SCENE_OK.replace('id = "ball"', 'id = "ground"'), "duplicate id"),
+    (SCENE_OK.replace("position = [0, 1, 0]", "position = [0, inf, 0]"), "key 'position'"),
+    (SCENE_OK.replace("position = [0, 1, 0]", "position = [0, 1]"), "must be a list of 3 numbers"),
+    (SCENE_OK + "colour = 'red'\n", "key 'colour' = 'red': unknown key"),
+    (SCENE_OK + "[physics]\ndt = 0\n", "[physics] key 'dt' = 0: must be >= 1e-05"),
+    (SCENE_OK + "[camera]\nfov_deg = 500\n", "key 'fov_deg' = 500"),
+    ("[bodies]\n", "[bodies]: unknown table"),
+    ("[[body]]\nshape = 'sphere'\n", "missing key 'id'"),
+    (SCENE_OK.replace('shape = "plane"', 'shape = "plane"\nstatic = false'), "a plane is always static"),
+])
+def test_bad_scenes(tmp_toml, text, expected):
+    path = tmp_toml(text, "scene.toml")
+    with pytest.raises(ConfigError) as info:
+        load_scene(path, LIB)
+    assert str(path) in str(info.value)
+    assert expected in str(info.value)
+
+
+def test_ball_drop_scene_has_what_the_demo_needs():
+    scene = load_scene(BALL_DROP, LIB)
+    plates = {b.material.name for b in scene.bodies if b.shape.kind == "plate"}
+    assert {"steel", "aluminium", "lead", "oak"} <= plates
+    balls = [b for b in scene.bodies if b.shape.kind == "sphere"]
+    assert len({b.material.name for b in balls}) >= 4
+    assert len({b.shape.radius for b in balls}) >= 3 and len({b.position[1] for b in balls}) >= 3
+    assert any(b.shape.kind == "box" for b in scene.bodies)
+
+
+def _simulate(*args):
+    return subprocess.run([sys.executable, "-m", "dentdemo", "simulate", *args],
+                          capture_output=True, text=True)
+
+
+def test_simulate_json_matches_eq2_and_repeats_exactly():
+    first = _simulate("--scene", str(BALL_DROP), "--steps", "600", "--json")
+    second = _simulate("--scene", str(BALL_DROP), "--steps", "600", "--json")
+    assert first.returncode == 0, first.stderr
+    assert first.stdout == second.stdout
+    lines = [json.loads(line) for line in first.stdout.splitlines()]
+    assert len(lines) >= 10
+    from dentdemo.model.impulse import pair_impulses
+
+    for hit in lines:
+        inv = [0.0 if hit[k] is None else 1.0 / hit[k] for k in ("mass_a", "mass_b")]
+        j, j1 = pair_impulses(hit["normal"], hit["vel_a"], hit["vel_b"], inv[0], inv[1],
+                              hit["eps_a"], hit["eps_b"])
+        assert float(j) == pytest.approx(hit["j"], rel=1e-6)
+        assert float(j1) == pytest.approx(hit["j_elastic"], rel=1e-6)
+        assert hit["approach_speed"] > 0
+
+
+def test_simulate_bad_scene_is_one_line(tmp_toml):
+    path = tmp_toml(SCENE_OK.replace('material = "steel"', 'material = "adamantium"'), "s.toml")
+    result = _simulate("--scene", str(path), "--steps", "10")
+    assert result.returncode == 1
+    assert len(result.stderr.strip().splitlines()) == 1 and "adamantium" in result.stderr
+
+
+def test_trimesh_body_collides(tmp_path):
+    trimesh = pytest.importorskip("trimesh", reason="trimesh is a declared dependency")
+    path = tmp_path / "block.obj"
+    trimesh.creation.box(extents=(0.2, 0.2, 0.2)).export(path)
+    text = SCENE_OK + f'\n[[body]]\nid = "mesh"\nshape = "mesh"\nmesh = "{path}"\nmaterial = "oak"\nposition = [1, 0.5, 0]\n'
+    scene_path = tmp_path / "scene.toml"
+    scene_path.write_text(text)
+    from dentdemo.physics.simulate import build_world
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        world = build_world(load_scene(scene_path, LIB))
+    impacts = [i for _ in range(120) for i in world.step() if "mesh" in (i.body_a, i.body_b)]
+    assert impacts and impacts[0].j > 0
+    assert world.pose("mesh")[0][1] == pytest.approx(0.1, abs=0.01)  # resting on the ground
+    world.close()
