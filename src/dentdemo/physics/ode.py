@@ -78,3 +78,22 @@ ode = _load()
 def ode_configuration() -> str:
     """ODE's build configuration string (dGetConfiguration)."""
     return _config_bytes(ode).decode()
+
+
+class FastCalls:
+    """The per-contact hot path, bound once with plain pointer arguments (odepy's own wrappers
+    build a new prototype per call for some of these)."""
+
+    def __init__(self) -> None:
+        from odepy.common import loadOde
+
+        vp, i32 = ctypes.c_void_p, ctypes.c_int32
+        self.near_callback_type = ctypes.CFUNCTYPE(None, vp, vp, vp)
+        self.space_collide = loadOde("dSpaceCollide", None, vp, vp, self.near_callback_type)
+        self.collide = loadOde("dCollide", i32, vp, vp, i32, vp, i32)
+        self.create_contact = loadOde("dJointCreateContact", vp, vp, vp, vp)
+        self.attach = loadOde("dJointAttach", None, vp, vp, vp)
+        self.point_vel = loadOde("dBodyGetPointVel", None, vp, ode.dReal, ode.dReal, ode.dReal, vp)
+
+
+fast = FastCalls()

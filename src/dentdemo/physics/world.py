@@ -17,12 +17,13 @@ from numpy.typing import NDArray
 
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
-from dentdemo.physics.ode import ode
+from dentdemo.physics.ode import fast, ode
 
 MAX_CONTACTS = 8
 #: Constraint force mixing: near-rigid contacts. A soft CFM damps bounces more the smaller the
 #: step, which would make restitution depend on dt.
 CONTACT_CFM = 1e-9
+_CONTACT_MODE = ode.dContactBounce | ode.dContactSoftCFM | ode.dContactApprox1
 _GEOM_PLANE = 4  # dPlaneClass
 
 
@@ -88,6 +89,7 @@ class _Body:
     mass: float  # kg, inf when static
     com_offset: NDArray[np.float64]
     keep_alive: list = field(default_factory=list)  # ctypes buffers ODE points into
+    body_addr: int | None = None  # the dBodyID as an integer, for the hot path
 
 
 def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -124,10 +126,18 @@ class PhysicsWorld:
         self.time = 0.0
         self.removed: list[str] = []
         self._contacts = (ode.dContact * MAX_CONTACTS)()
-        self._callback = ode.dNearCallback(self._near)
+        self._contacts_addr = ctypes.addressof(self._contacts)
+        self._contact_addrs = [self._contacts_addr + i * ctypes.sizeof(ode.dContact) for i in range(MAX_CONTACTS)]
+        self._geom_offset = ode.dContact.geom.offset
+        self._callback = fast.near_callback_type(self._near)
+        self._world_addr = _addr(self.world)
+        self._group_addr = _addr(self.contact_group)
+        self._space_addr = _addr(self.space)
+        self._pair_surface: dict[tuple[int, int], tuple[float, float]] = {}
         self._pending: dict[tuple[str, str], Impact] = {}
         self._substep = 0
         self._vel_buffer = (ode.dReal * 4)()
+        self._vel_addr = ctypes.addressof(self._vel_buffer)
 
     # -- bodies --------------------------------------------------------------------------------
     def add_body(self, spec: BodySpec, mesh_arrays: tuple[NDArray, NDArray] | None = None) -> None:
@@ -173,6 +183,7 @@ class PhysicsWorld:
             if shape.kind == "mesh" and np.any(com != 0):
                 ode.dGeomSetOffsetPosition(geom, *(-com))
             record.body, record.mass, record.com_offset = body, float(mass.mass), com
+            record.body_addr = _addr(body)
             ode.dBodySetLinearVel(body, *spec.velocity)
             ode.dBodySetAngularVel(body, *spec.angular_velocity)
         self.bodies[spec.id] = record
@@ -210,7 +221,9 @@ class PhysicsWorld:
 
     def remove_body(self, body_id: str) -> None:
         record = self.bodies.pop(body_id)
-        self._by_geom.pop(_addr(record.geom), None)
+        geom_addr = _addr(record.geom)
+        self._by_geom.pop(geom_addr, None)
+        self._pair_surface = {k: v for k, v in self._pair_surface.items() if geom_addr not in k}
         ode.dGeomDestroy(record.geom)
         if record.body is not None:
             ode.dBodyDestroy(record.body)
@@ -276,7 +289,7 @@ class PhysicsWorld:
         sub_dt = self.spec.dt / self.spec.substeps
         for sub in range(self.spec.substeps):
             self._substep = sub
-            ode.dSpaceCollide(self.space, None, self._callback)
+            fast.space_collide(self._space_addr, None, self._callback)
             ode.dWorldQuickStep(self.world, sub_dt)
             ode.dJointGroupEmpty(self.contact_group)
             self.time += sub_dt
@@ -300,31 +313,40 @@ class PhysicsWorld:
                 self.remove_body(body_id)
                 self.removed.append(body_id)
 
-    def _near(self, _data: object, g1: object, g2: object) -> None:
-        r1 = self._by_geom.get(_addr(g1))
-        r2 = self._by_geom.get(_addr(g2))
+    def _near(self, _data: int | None, g1: int, g2: int) -> None:
+        r1 = self._by_geom.get(g1)
+        r2 = self._by_geom.get(g2)
         if r1 is None or r2 is None or (r1.body is None and r2.body is None):
             return
         contacts = self._contacts
-        count = ode.dCollide(g1, g2, MAX_CONTACTS, ctypes.pointer(contacts[0].geom),
+        count = fast.collide(g1, g2, MAX_CONTACTS, self._contacts_addr + self._geom_offset,
                              ctypes.sizeof(ode.dContact))
         if count <= 0:
             return
-        m1, m2 = r1.spec.material, r2.spec.material
-        mode = ode.dContactBounce | ode.dContactSoftCFM | ode.dContactApprox1
-        deepest = max(range(count), key=lambda i: contacts[i].geom.depth)
+        key = (g1, g2)
+        surface = self._pair_surface.get(key)
+        if surface is None:
+            m1, m2 = r1.spec.material, r2.spec.material
+            surface = (math.sqrt(m1.friction * m2.friction), min(m1.restitution, m2.restitution))
+            self._pair_surface[key] = surface
+        mu, bounce = surface
+        mode = _CONTACT_MODE
+        deepest, best = 0, -math.inf
         for i in range(count):
             c = contacts[i]
-            c.surface.mode = mode
-            c.surface.mu = math.sqrt(m1.friction * m2.friction)
-            c.surface.bounce = min(m1.restitution, m2.restitution)
-            c.surface.bounce_vel = self.spec.impact_speed_min
-            c.surface.soft_cfm = CONTACT_CFM
+            s = c.surface
+            s.mode = mode
+            s.mu = mu
+            s.bounce = bounce
+            s.bounce_vel = self.spec.impact_speed_min
+            s.soft_cfm = CONTACT_CFM
+            depth = c.geom.depth
+            if depth > best:
+                deepest, best = i, depth
+            joint = fast.create_contact(self._world_addr, self._group_addr, self._contact_addrs[i])
+            fast.attach(joint, r1.body_addr, r2.body_addr)
         # ODE's normal points into g1: from body A = owner of g2 towards body B = owner of g1.
         self._record(r2, r1, contacts[deepest].geom)
-        for i in range(count):
-            joint = ode.dJointCreateContact(self.world, self.contact_group, ctypes.byref(contacts[i]))
-            ode.dJointAttach(joint, r1.body, r2.body)
 
     def _record(self, a: _Body, b: _Body, geom: object) -> None:
         px, py, pz = geom.pos[0], geom.pos[1], geom.pos[2]
@@ -356,7 +378,7 @@ class PhysicsWorld:
         if record.body is None:
             return (0.0, 0.0, 0.0)
         out = self._vel_buffer
-        ode.dBodyGetPointVel(record.body, x, y, z, out)
+        fast.point_vel(record.body_addr, x, y, z, self._vel_addr)
         return (out[0], out[1], out[2])
 
     def close(self) -> None:
