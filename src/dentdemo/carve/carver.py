@@ -125,6 +125,10 @@ class Carver:
             self.hits += 1
         return jobs
 
+    def slot_textures(self, slot: int) -> moderngl.Texture:
+        """The address map of a slot of the last hit (for the debug view)."""
+        return self._slots[slot].address
+
     def release(self) -> None:
         release(*self._points.values())
         for slot in self._slots:

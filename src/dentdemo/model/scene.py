@@ -98,8 +98,8 @@ class LightSpec:
     #: Direction the light travels (world), normalised when used.
     direction: tuple[float, float, float] = (-0.4, -1.0, -0.3)
     colour: tuple[float, float, float] = (1.0, 0.97, 0.9)
-    intensity: float = 3.0
-    ambient: float = 0.25
+    intensity: float = 1.5
+    ambient: float = 0.3
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,287 @@
+"""The Simulation: physics -> material model -> carve, one object shared by the window and the
+headless renderer. It owns the bodies' meshes and maps on the GPU and never reads them back."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import CarveBody, Carver
+from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, map_size_for
+from dentdemo.gl.context import GLContext
+from dentdemo.mesh import primitives
+from dentdemo.mesh.mesh import Mesh
+from dentdemo.model.impulse import dent_depth
+from dentdemo.model.materials import MaterialLibrary
+from dentdemo.model.scene import BodySpec, Scene, ShapeSpec
+from dentdemo.physics.simulate import build_world
+from dentdemo.physics.world import Impact, PhysicsWorld, quat_to_matrix
+
+#: Side of the stand-in plate that plays the ground when a body is carved by the ground plane, m.
+GROUND_PROXY_SIDE = 4.0
+
+
+@dataclass
+class SimBody:
+    """A body as the app sees it: the scene spec, its mesh on the GPU, maps when dentable."""
+
+    spec: BodySpec
+    mesh: Mesh
+    gpu_mesh: GpuMesh
+    maps: SurfaceMaps | None
+
+    def carve_body(self, model: NDArray[np.float64]) -> CarveBody | None:
+        return CarveBody(self.gpu_mesh, self.maps, model) if self.maps is not None else None
+
+
+@dataclass(frozen=True)
+class CarveRequest:
+    """One impact waiting for the carve: poses at first touch and both depths (m)."""
+
+    impact: Impact
+    depth_a: float
+    depth_b: float
+    model_a: NDArray[np.float64]
+    model_b: NDArray[np.float64]
+
+
+@dataclass
+class SimStats:
+    frames: int = 0
+    hits: int = 0
+    impacts: int = 0
+    physics_ms: float = 0.0
+    carve_ms: float = 0.0  # CPU time issuing the last frame's carves (the GPU runs them async)
+    carve_ms_per_hit: float = 0.0
+    history: deque = field(default_factory=lambda: deque(maxlen=120))
+
+
+def shape_mesh(shape: ShapeSpec) -> Mesh:
+    """The render and carve mesh of a shape (body-local, metres)."""
+    if shape.kind == "sphere":
+        return primitives.sphere(shape.radius, subdivisions=24)
+    if shape.kind == "box":
+        return primitives.box(shape.size)
+    if shape.kind == "plate":
+        return primitives.plate(shape.side)
+    if shape.kind == "capsule":
+        return primitives.capsule(shape.radius, shape.length)
+    if shape.kind == "cylinder":
+        return primitives.cylinder(shape.radius, shape.length)
+    if shape.kind == "mesh":
+        from dentdemo.mesh.loader import load_mesh
+
+        return load_mesh(shape.mesh_path, shape.scale)
+    return primitives.plate(GROUND_PROXY_SIDE)  # the ground plane
+
+
+def pose_matrix(position: NDArray, quaternion: NDArray) -> NDArray[np.float64]:
+    m = np.eye(4)
+    m[:3, :3] = quat_to_matrix(np.asarray(quaternion, dtype=np.float64))
+    m[:3, 3] = position
+    return m
+
+
+class Simulation:
+    """Steps physics at the scene's fixed dt, turns impacts into dents, keeps the render state."""
+
+    def __init__(
+        self,
+        gl: GLContext,
+        scene: Scene,
+        materials: MaterialLibrary,
+        *,
+        denting: bool = True,
+        carve_budget: int = 16,
+    ) -> None:
+        self.gl = gl
+        self.scene = scene
+        self.materials = materials
+        #: False: impacts are still detected, nothing is carved.
+        self.denting = denting
+        #: Most carves per frame; the rest wait in `queue` for later frames (none is dropped).
+        self.carve_budget = carve_budget
+        self.time_scale = 1.0
+        self.carver = Carver(gl)
+        self.queue: deque[CarveRequest] = deque()
+        self.stats = SimStats()
+        self.last_impacts: list[Impact] = []
+        self.carved_points: list[NDArray[np.float64]] = []
+        self._ball_count = 0
+        self._time_debt = 0.0
+        self.bodies: dict[str, SimBody] = {}
+        self.world: PhysicsWorld = build_world(scene)
+        for spec in scene.bodies:
+            self._add_render_body(spec)
+
+    # -- bodies --------------------------------------------------------------------------------
+    def _add_render_body(self, spec: BodySpec) -> SimBody:
+        mesh = shape_mesh(spec.shape)
+        gpu = GpuMesh(self.gl, mesh)
+        maps = None
+        if spec.dentable:
+            size = map_size_for(mesh, spec.texels_per_metre)
+            maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth)
+        else:
+            maps = create_maps(self.gl, gpu, 16, spec.material.max_dent_depth)  # a flat stand-in
+        body = SimBody(spec, mesh, gpu, maps)
+        self.bodies[spec.id] = body
+        return body
+
+    def drop_ball(
+        self,
+        position: NDArray,
+        velocity: NDArray = (0.0, 0.0, 0.0),
+        material: str = "steel",
+        radius: float = 0.04,
+        texels_per_metre: float = 1024.0,
+    ) -> str:
+        """Add a ball (the demo's click and throw); returns its id."""
+        if not (math.isfinite(radius) and radius > 0):
+            raise ValueError(f"ball radius must be positive, got {radius}")
+        self._ball_count += 1
+        body_id = f"ball_{self._ball_count}"
+        while body_id in self.bodies:
+            self._ball_count += 1
+            body_id = f"ball_{self._ball_count}"
+        spec = BodySpec(
+            id=body_id,
+            shape=ShapeSpec("sphere", radius=radius),
+            material=self.materials.get(material),
+            position=tuple(float(x) for x in position),
+            velocity=tuple(float(x) for x in velocity),
+            texels_per_metre=texels_per_metre,
+        )
+        self.world.add_body(spec)
+        self._add_render_body(spec)
+        return body_id
+
+    def remove_body(self, body_id: str) -> None:
+        self.world.remove_body(body_id)
+        body = self.bodies.pop(body_id)
+        self.queue = deque(r for r in self.queue if body_id not in (r.impact.body_a, r.impact.body_b))
+        body.gpu_mesh.release()
+        if body.maps is not None:
+            body.maps.release()
+
+    def model(self, body_id: str) -> NDArray[np.float64]:
+        return self.world.model_matrix(body_id) if body_id in self.world.bodies else np.eye(4)
+
+    # -- stepping ------------------------------------------------------------------------------
+    def step(self) -> list[Impact]:
+        """One fixed physics step, then up to `carve_budget` carves from the queue."""
+        start = time.perf_counter()
+        impacts = self.world.step()
+        for gone in self.world.removed:
+            if gone in self.bodies:
+                self.bodies.pop(gone).gpu_mesh.release()
+        self.world.removed.clear()
+        physics_ms = (time.perf_counter() - start) * 1e3
+        self.last_impacts = impacts
+        self.stats.impacts += len(impacts)
+        if self.denting:
+            for impact in impacts:
+                request = self._request(impact)
+                if request is not None:
+                    self.queue.append(request)
+        start = time.perf_counter()
+        done = 0
+        while self.queue and done < self.carve_budget:
+            self._carve(self.queue.popleft())
+            done += 1
+        carve_ms = (time.perf_counter() - start) * 1e3
+        self.stats.frames += 1
+        self.stats.hits += done
+        self.stats.physics_ms = physics_ms
+        self.stats.carve_ms = carve_ms
+        if done:
+            self.stats.carve_ms_per_hit = carve_ms / done
+        return impacts
+
+    def advance(self, seconds: float, max_steps: int = 4) -> int:
+        """Steps owed for `seconds` of wall time times the time scale (window use)."""
+        self._time_debt += seconds * self.time_scale
+        steps = 0
+        while self._time_debt >= self.scene.physics.dt and steps < max_steps:
+            self.step()
+            self._time_debt -= self.scene.physics.dt
+            steps += 1
+        if steps == max_steps:
+            self._time_debt = 0.0
+        return steps
+
+    def _request(self, impact: Impact) -> CarveRequest | None:
+        a, b = self.bodies.get(impact.body_a), self.bodies.get(impact.body_b)
+        if a is None or b is None:
+            return None
+        ma, mb = a.spec.material, b.spec.material
+        depth_a = float(dent_depth(impact.j_elastic, ma.k, ma.Y, ma.max_dent_depth)) if a.spec.dentable else 0.0
+        depth_b = float(dent_depth(impact.j_elastic, mb.k, mb.Y, mb.max_dent_depth)) if b.spec.dentable else 0.0
+        if depth_a <= 0.0 and depth_b <= 0.0:
+            return None  # no GPU work for an impact below both thresholds
+        model_a = pose_matrix(*impact.pose_a)
+        if a.spec.shape.kind == "plane":
+            model_a[:3, 3] = [impact.point[0], a.spec.position[1], impact.point[2]]
+        model_b = pose_matrix(*impact.pose_b)
+        model_b[:3, 3] += impact.normal * impact.depth  # undo the penetration: first touch
+        return CarveRequest(impact, depth_a, depth_b, model_a, model_b)
+
+    def _carve(self, request: CarveRequest) -> None:
+        impact = request.impact
+        a, b = self.bodies.get(impact.body_a), self.bodies.get(impact.body_b)
+        if a is None or b is None:
+            return
+        target = CarveBody(a.gpu_mesh, a.maps, request.model_a)
+        tool = CarveBody(b.gpu_mesh, b.maps, request.model_b)
+        # B moves into A along -N; the carve finds the surface point of A nearest to the contact.
+        point = impact.point
+        contact = ContactFrame(point, -impact.normal)
+        self.carver.carve(target, tool, contact, request.depth_a, request.depth_b)
+        self.carved_points.append(point)
+
+    # -- lifecycle -----------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Back to the scene as loaded: bodies, poses and pristine maps."""
+        for body in self.bodies.values():
+            body.gpu_mesh.release()
+            if body.maps is not None:
+                body.maps.release()
+        self.world.close()
+        self.bodies.clear()
+        self.queue.clear()
+        self.carved_points.clear()
+        self.stats = replace(SimStats(), history=self.stats.history)
+        self._ball_count = 0
+        self.world = build_world(self.scene)
+        for spec in self.scene.bodies:
+            self._add_render_body(spec)
+
+    def export_maps(self, directory: Path) -> list[Path]:
+        """Every dentable body's height (.npy, float32 [v, u]) and normal map (.png); export only."""
+        from dentdemo.app.indent import save_normal_png
+
+        directory.mkdir(parents=True, exist_ok=True)
+        written = []
+        for body_id, body in sorted(self.bodies.items()):
+            if not body.spec.dentable or body.maps is None:
+                continue
+            height = self.gl.read(body.maps.height)[:, :, 0]
+            np.save(directory / f"{body_id}_height.npy", height)
+            save_normal_png(self.gl.read(body.maps.normal), directory / f"{body_id}_normal.png")
+            written += [directory / f"{body_id}_height.npy", directory / f"{body_id}_normal.png"]
+        return written
+
+    def close(self) -> None:
+        for body in self.bodies.values():
+            body.gpu_mesh.release()
+            if body.maps is not None:
+                body.maps.release()
+        self.carver.release()
+        self.world.close()

@@ -1,0 +1,1 @@
+"""Drawing the scene: orbit camera, normal-mapped shading, shadows, debug views."""

@@ -1,0 +1,231 @@
+"""The scene renderer: shadow pass, sky, normal-mapped bodies, debug views, MSAA resolve."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from dentdemo.carve.surface import GpuMesh
+from dentdemo.gl.context import GLContext, release
+from dentdemo.gl.shaders import program
+from dentdemo.mesh import primitives
+from dentdemo.render.camera import OrbitCamera, look_at, orthographic
+from dentdemo.render.looks import GROUND_LOOK, look
+
+SHADOW_SIZE = 2048
+GROUND_SIDE = 12.0  # m
+
+
+@dataclass
+class RenderOptions:
+    """What to draw. Every field is a toggle of the panel or the keys."""
+
+    parallax: bool = False
+    #: 0 shaded, 1 height map, 2 normal map.
+    view: int = 0
+    wireframe: bool = False
+    contacts: bool = False
+    address_map: bool = False
+    shadows: bool = True
+
+
+class Renderer:
+    """Draws a Simulation into an MSAA framebuffer and resolves it into `output` (sRGB bytes)."""
+
+    def __init__(self, gl: GLContext, size: tuple[int, int], samples: int = 4) -> None:
+        self.gl = gl
+        ctx = gl.ctx
+        self.size = size
+        samples = min(samples, ctx.max_samples)
+        self._msaa_colour = ctx.renderbuffer(size, 4, samples=samples)
+        self._msaa_depth = ctx.depth_renderbuffer(size, samples=samples)
+        self.msaa = ctx.framebuffer([self._msaa_colour], self._msaa_depth)
+        self.output_texture = ctx.texture(size, 4)
+        self.output = ctx.framebuffer([self.output_texture])
+        self.shadow_texture = ctx.depth_texture((SHADOW_SIZE, SHADOW_SIZE))
+        self.shadow_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.shadow_texture.compare_func = ""  # read depths; lit.frag compares itself (PCF)
+        self.shadow = ctx.framebuffer(depth_attachment=self.shadow_texture)
+        self._lit = program(gl.cache, ctx, "render/lit.vert", "render/lit.frag")
+        self._depth = program(gl.cache, ctx, "render/shadow.vert", "render/shadow.frag")
+        self._sky = program(gl.cache, ctx, "util/fullscreen.vert", "render/sky.frag")
+        self._lines = program(gl.cache, ctx, "render/lines.vert", "render/lines.frag")
+        self._overlay = program(gl.cache, ctx, "util/rect.vert", "render/overlay.frag")
+        self._empty_sky = ctx.vertex_array(self._sky, [])
+        self._empty_rect = ctx.vertex_array(self._overlay, [])
+        self._ground = GpuMesh(gl, primitives.plate(GROUND_SIDE, subdivisions=1))
+        self._flat_normal = ctx.texture((1, 1), 4, bytes([128, 128, 255, 255]))
+        self._flat_height = ctx.texture((1, 1), 1, np.zeros(1, "f4").tobytes(), dtype="f4")
+        self._line_vbo = ctx.buffer(reserve=6 * 4 * 2 * 1024, dynamic=True)
+        self._line_vao = ctx.vertex_array(self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_colour")])
+        self._plate_sides: dict[str, GpuMesh] = {}
+
+    @property
+    def aspect(self) -> float:
+        return self.size[0] / self.size[1]
+
+    # -- frame ---------------------------------------------------------------------------------
+    def render(self, sim, camera: OrbitCamera, options: RenderOptions) -> moderngl.Framebuffer:
+        """Draw one frame; the result is in `self.output` (and `self.output_texture`)."""
+        ctx = self.gl.ctx
+        view_proj = camera.view_proj(self.aspect)
+        light_dir = np.asarray(sim.scene.light.direction, float)
+        light_dir /= np.linalg.norm(light_dir)
+        light_view_proj = self._light_matrix(camera.target, light_dir)
+        frame = {
+            "u_view_proj": view_proj,
+            "u_light_view_proj": light_view_proj,
+            "u_camera_pos": tuple(camera.eye),
+            "u_light_dir": tuple(light_dir),
+            "u_light_colour": tuple(np.asarray(sim.scene.light.colour) * sim.scene.light.intensity),
+            "u_ambient": sim.scene.light.ambient,
+        }
+        draws = list(self._draw_list(sim))
+        # Shadow pass.
+        self.shadow.use()
+        ctx.viewport = (0, 0, SHADOW_SIZE, SHADOW_SIZE)
+        self.shadow.clear(depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+        ctx.depth_func = "<"
+        if options.shadows:
+            _uniforms(self._depth, frame)
+            for gpu, model, *_ in draws:
+                _matrix(self._depth, "u_model", model)
+                gpu.vao(self._depth).render(moderngl.TRIANGLES)
+        # Sky.
+        self.msaa.use()
+        ctx.viewport = (0, 0, *self.size)
+        self.msaa.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        ctx.disable(moderngl.DEPTH_TEST)
+        _matrix(self._sky, "u_inverse_view_proj", np.linalg.inv(view_proj))
+        self._sky["u_viewport"] = self.size
+        self._empty_sky.render(moderngl.TRIANGLES, vertices=3)
+        # Bodies.
+        ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.cull_face = "back"
+        ctx.wireframe = options.wireframe
+        prog = self._lit
+        _uniforms(prog, frame)
+        self.shadow_texture.use(2)
+        prog["u_shadow_map"] = 2
+        prog["u_normal_map"] = 0
+        prog["u_height_map"] = 1
+        prog["u_view"] = options.view
+        for gpu, model, maps, material, checker in draws:
+            albedo, specular, shininess = GROUND_LOOK if checker else look(material)
+            prog["u_albedo"] = albedo
+            prog["u_specular"] = specular
+            prog["u_shininess"] = shininess
+            prog["u_checker"] = checker
+            _matrix(prog, "u_model", model)
+            normal_matrix = np.linalg.inv(model[:3, :3]).T
+            prog["u_normal_matrix"].write(normal_matrix.T.astype("f4").tobytes())
+            if maps is not None:
+                maps.normal.use(0)
+                maps.height.use(1)
+                w, h = maps.size
+                prog["u_uv_per_metre"] = (1.0 / (maps.texel_metres[0] * w), 1.0 / (maps.texel_metres[1] * h))
+                prog["u_max_depth"] = maps.max_dent_depth
+                prog["u_parallax"] = options.parallax
+            else:
+                self._flat_normal.use(0)
+                self._flat_height.use(1)
+                prog["u_parallax"] = False
+                prog["u_max_depth"] = 0.0
+            gpu.vao(prog).render(moderngl.TRIANGLES)
+        ctx.wireframe = False
+        if options.contacts:
+            self._draw_contacts(sim, frame)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        if options.address_map and sim.carver.last_jobs:
+            self._draw_address_map(sim)
+        ctx.copy_framebuffer(self.output, self.msaa)
+        return self.output
+
+    def _draw_list(self, sim):
+        """(gpu mesh, model, maps or None, material name, checker) for everything to draw."""
+        ground_model = np.eye(4)
+        for body_id, body in sim.bodies.items():
+            kind = body.spec.shape.kind
+            if kind == "plane":
+                ground_model = np.eye(4)
+                ground_model[1, 3] = body.spec.position[1]
+                continue
+            model = sim.model(body_id)
+            yield body.gpu_mesh, model, body.maps, body.spec.material.name, False
+            if kind == "plate":
+                yield self._plate_body(body.spec.shape), model, None, body.spec.material.name, False
+        yield self._ground, ground_model, None, "ground", True
+
+    def _plate_body(self, shape) -> GpuMesh:
+        """The plate's thickness under its dentable top face (drawn, never carved)."""
+        key = f"{shape.side}x{shape.thickness}"
+        if key not in self._plate_sides:
+            mesh = primitives.box((shape.side, shape.thickness, shape.side))
+            mesh.positions[:, 1] -= shape.thickness / 2 + 2e-4  # just below the top face
+            self._plate_sides[key] = GpuMesh(self.gl, mesh)
+        return self._plate_sides[key]
+
+    def _light_matrix(self, centre: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        radius = 2.5
+        eye = centre - direction * 6.0
+        up = (0.0, 0.0, 1.0) if abs(direction[1]) > 0.99 else (0.0, 1.0, 0.0)
+        return orthographic(radius, radius, 0.1, 14.0) @ look_at(eye, centre, up)
+
+    def _draw_contacts(self, sim, frame: dict) -> None:
+        points = []
+        for impact in sim.last_impacts[-512:]:
+            p, n = impact.point, impact.normal
+            points += [*p, 1.0, 0.9, 0.1, *(p + 0.1 * n), 1.0, 0.2, 0.1]
+        for p in sim.carved_points[-256:]:
+            points += [*(p + [0, 0.002, 0]), 0.1, 1.0, 0.3, *(p + [0, 0.04, 0]), 0.1, 1.0, 0.3]
+        if not points:
+            return
+        data = np.asarray(points, "f4")[: self._line_vbo.size // 4]
+        self._line_vbo.write(data.tobytes())
+        _uniforms(self._lines, frame)
+        self.gl.ctx.disable(moderngl.DEPTH_TEST)
+        self._line_vao.render(moderngl.LINES, vertices=len(data) // 6)
+
+    def _draw_address_map(self, sim) -> None:
+        job = sim.carver.last_jobs[0]
+        slot = sim.carver.slot_textures(0)
+        w, h = job.camera.resolution
+        side = min(256, self.size[1] // 3)
+        rect = (self.size[0] - side - 8, 8, side, side)
+        slot.use(0)
+        self._overlay["u_texture"] = 0
+        self._overlay["u_rect"] = rect
+        self._overlay["u_extent"] = (w, h)
+        self._overlay["u_viewport"] = self.size
+        self._empty_rect.render(moderngl.TRIANGLE_STRIP, vertices=4)
+
+    def read_rgb(self) -> np.ndarray:
+        """The last frame as uint8 [rows top-down, cols, 3] (screenshots and tests only)."""
+        return self.gl.read_framebuffer(self.output)[::-1]
+
+    def release(self) -> None:
+        release(self._line_vao, self._line_vbo, self._empty_sky, self._empty_rect, self.msaa,
+                self.output, self.shadow, self._msaa_colour, self._msaa_depth, self.output_texture,
+                self.shadow_texture, self._flat_normal, self._flat_height)
+        self._ground.release()
+        for mesh in self._plate_sides.values():
+            mesh.release()
+
+
+def _matrix(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
+    if name in prog:
+        prog[name].write(np.asarray(m, dtype="f4").T.tobytes())
+
+
+def _uniforms(prog: moderngl.Program, values: dict) -> None:
+    for name, value in values.items():
+        if name not in prog:
+            continue
+        if isinstance(value, np.ndarray) and value.shape == (4, 4):
+            _matrix(prog, name, value)
+        else:
+            prog[name] = value
