@@ -1,21 +1,26 @@
 #version 330 core
 // Blinn-Phong with the body's rebuilt tangent-space normal map, a PCF-filtered directional
 // shadow, optional parallax occlusion mapping from the height map, and debug views.
+// Compile-time variants (the renderer sets them): PARALLAX 0/1, VIEW 0 shaded / 1 height / 2 normal.
+#ifndef PARALLAX
+#define PARALLAX 0
+#endif
+#ifndef VIEW
+#define VIEW 0
+#endif
 #include "frame.glsl"
 #include "../include/common.glsl"
 #include "../include/srgb.glsl"
 
 uniform sampler2D u_normal_map;   // RGBA8 tangent-space normal
 uniform sampler2D u_height_map;   // R32F metres (negative = dent)
-uniform sampler2D u_shadow_map;   // light depth in [0, 1]
+uniform sampler2DShadow u_shadow_map;  // light depth in [0, 1], compared in hardware
 uniform vec3 u_albedo;            // linear RGB
 uniform float u_specular;         // specular strength
 uniform float u_shininess;        // Blinn-Phong exponent
 uniform bool u_checker;           // the ground's checker pattern
-uniform bool u_parallax;          // parallax occlusion mapping on/off
 uniform vec2 u_uv_per_metre;      // texture-space length of one metre along +u and +v
 uniform float u_max_depth;        // deepest possible dent, metres (parallax search range)
-uniform int u_view;               // 0 shaded, 1 height map, 2 normal map
 
 in vec3 v_world;
 in vec2 v_uv;
@@ -55,28 +60,33 @@ float shadow_factor(vec3 n) {
     vec3 p = v_light_clip.xyz / v_light_clip.w * 0.5 + 0.5;
     if (any(lessThan(p, vec3(0.0))) || any(greaterThan(p, vec3(1.0)))) return 1.0;
     float bias = 0.0015 + 0.002 * (1.0 - max(dot(n, -u_light_dir), 0.0));
+    // Four bilinear comparison taps: a 3 x 3 texel percentage-closer filter.
     vec2 texel = 1.0 / vec2(textureSize(u_shadow_map, 0));
     float lit = 0.0;
-    for (int y = -1; y <= 1; ++y)
-        for (int x = -1; x <= 1; ++x)
-            lit += (p.z - bias <= texture(u_shadow_map, p.xy + vec2(x, y) * texel).r) ? 1.0 : 0.0;
-    return lit / 9.0;
+    for (int i = 0; i < 4; ++i) {
+        vec2 offset = (vec2(i & 1, i >> 1) - 0.5) * texel;
+        lit += texture(u_shadow_map, vec3(p.xy + offset, p.z - bias));
+    }
+    return lit * 0.25;
 }
 
 void main() {
     mat3 tbn = mat3(normalize(v_tangent), normalize(v_bitangent), normalize(v_normal));
     vec3 view = normalize(u_camera_pos - v_world);
-    vec2 uv = u_parallax ? parallax_uv(v_uv, transpose(tbn) * view) : v_uv;
+#if PARALLAX
+    vec2 uv = parallax_uv(v_uv, transpose(tbn) * view);
+#else
+    vec2 uv = v_uv;
+#endif
     vec3 n = normalize(tbn * decode_normal(texture(u_normal_map, uv).rgb));
-    if (u_view == 1) {
-        float d = clamp(depth_at(uv) / max(u_max_depth, 1e-6), 0.0, 1.0);
-        f_colour = vec4(linear_to_srgb(mix(vec3(0.9), vec3(0.9, 0.1, 0.05), pow(d, 0.5))), 1.0);
-        return;
-    }
-    if (u_view == 2) {
-        f_colour = vec4(texture(u_normal_map, uv).rgb, 1.0);
-        return;
-    }
+#if VIEW == 1
+    float d = clamp(depth_at(uv) / max(u_max_depth, 1e-6), 0.0, 1.0);
+    f_colour = vec4(linear_to_srgb(mix(vec3(0.9), vec3(0.9, 0.1, 0.05), sqrt(d))), 1.0);
+    return;
+#elif VIEW == 2
+    f_colour = vec4(texture(u_normal_map, uv).rgb, 1.0);
+    return;
+#endif
     vec3 albedo = u_albedo;
     if (u_checker) {
         vec2 cell = floor(v_world.xz / 0.25);

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable
 
-from dentdemo.app import headless, indent
+from dentdemo.app import demo, headless, indent
 from dentdemo.physics import simulate
 
-REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [indent.register, simulate.register, headless.register]
+REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [indent.register, simulate.register, headless.register, demo.register]

@@ -66,7 +66,7 @@ class SimStats:
 def shape_mesh(shape: ShapeSpec) -> Mesh:
     """The render and carve mesh of a shape (body-local, metres)."""
     if shape.kind == "sphere":
-        return primitives.sphere(shape.radius, subdivisions=24)
+        return primitives.sphere(shape.radius, subdivisions=16)
     if shape.kind == "box":
         return primitives.box(shape.size)
     if shape.kind == "plate":

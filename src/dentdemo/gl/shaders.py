@@ -51,8 +51,9 @@ class ShaderLibrary:
     def __init__(self, root: Path | None = None) -> None:
         self.root = Path(root) if root else shaders_dir()
 
-    def expand(self, name: str) -> ExpandedSource:
-        """Read `name` (relative to the root) with its includes spliced in."""
+    def expand(self, name: str, defines: dict[str, object] | None = None) -> ExpandedSource:
+        """Read `name` (relative to the root) with its includes spliced in and `defines` set as
+        `#define NAME VALUE` right after the `#version` line (compile-time variants)."""
         path = self._resolve(name, None)
         out = ExpandedSource(text="")
         lines: list[str] = []
@@ -60,6 +61,10 @@ class ShaderLibrary:
         if not first or not _VERSION.match(first[0]):
             raise ShaderError(f"{_short(path)}:1: a shader must start with '#version 330 core'")
         lines.append(first[0])
+        for key, value in sorted((defines or {}).items()):
+            if not re.fullmatch(r"[A-Z_][A-Z0-9_]*", key):
+                raise ShaderError(f"bad shader define name '{key}'")
+            lines.append(f"#define {key} {value}")
         self._splice(path, first, 1, lines, out, stack=[path])
         out.text = "\n".join(lines) + "\n"
         return out
@@ -109,13 +114,14 @@ class ShaderLibrary:
         vertex: str,
         fragment: str | None = None,
         geometry: str | None = None,
+        defines: dict[str, object] | None = None,
     ) -> moderngl.Program:
         """Compile and link a program from shader files; errors name file and line."""
-        sources = {"vertex_shader": self.expand(vertex)}
+        sources = {"vertex_shader": self.expand(vertex, defines)}
         if fragment:
-            sources["fragment_shader"] = self.expand(fragment)
+            sources["fragment_shader"] = self.expand(fragment, defines)
         if geometry:
-            sources["geometry_shader"] = self.expand(geometry)
+            sources["geometry_shader"] = self.expand(geometry, defines)
         try:
             return ctx.program(**{stage: src.text for stage, src in sources.items()})
         except moderngl.Error as exc:
@@ -145,9 +151,11 @@ def _short(path: Path) -> str:
         return str(path)
 
 
-def program(gl_cache: dict, ctx: moderngl.Context, *names: str) -> moderngl.Program:
-    """A cached program per context: `program(gl.cache, gl.ctx, "a.vert", "a.frag")`."""
-    key = "program:" + "|".join(names)
+def program(
+    gl_cache: dict, ctx: moderngl.Context, *names: str, defines: dict[str, object] | None = None
+) -> moderngl.Program:
+    """A cached program per context and defines: `program(gl.cache, gl.ctx, "a.vert", "a.frag")`."""
+    key = "program:" + "|".join(names) + "|" + repr(sorted((defines or {}).items()))
     if key not in gl_cache:
-        gl_cache[key] = ShaderLibrary().program(ctx, *names)
+        gl_cache[key] = ShaderLibrary().program(ctx, *names, defines=defines)
     return gl_cache[key]

@@ -45,10 +45,9 @@ class Renderer:
         self.output_texture = ctx.texture(size, 4)
         self.output = ctx.framebuffer([self.output_texture])
         self.shadow_texture = ctx.depth_texture((SHADOW_SIZE, SHADOW_SIZE))
-        self.shadow_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.shadow_texture.compare_func = ""  # read depths; lit.frag compares itself (PCF)
+        self.shadow_texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.shadow_texture.compare_func = "<="  # hardware comparison: bilinear PCF per tap
         self.shadow = ctx.framebuffer(depth_attachment=self.shadow_texture)
-        self._lit = program(gl.cache, ctx, "render/lit.vert", "render/lit.frag")
         self._depth = program(gl.cache, ctx, "render/shadow.vert", "render/shadow.frag")
         self._sky = program(gl.cache, ctx, "util/fullscreen.vert", "render/sky.frag")
         self._lines = program(gl.cache, ctx, "render/lines.vert", "render/lines.frag")
@@ -61,6 +60,11 @@ class Renderer:
         self._line_vbo = ctx.buffer(reserve=6 * 4 * 2 * 1024, dynamic=True)
         self._line_vao = ctx.vertex_array(self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_colour")])
         self._plate_sides: dict[str, GpuMesh] = {}
+
+    def _lit(self, options: RenderOptions) -> moderngl.Program:
+        """The body shader variant for these options (compile-time switches: no cost when off)."""
+        defines = {"PARALLAX": int(options.parallax), "VIEW": int(options.view)}
+        return program(self.gl.cache, self.gl.ctx, "render/lit.vert", "render/lit.frag", defines=defines)
 
     @property
     def aspect(self) -> float:
@@ -101,40 +105,37 @@ class Renderer:
         self.msaa.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
         ctx.disable(moderngl.DEPTH_TEST)
         _matrix(self._sky, "u_inverse_view_proj", np.linalg.inv(view_proj))
-        self._sky["u_viewport"] = self.size
+        _set(self._sky, "u_viewport", self.size)
         self._empty_sky.render(moderngl.TRIANGLES, vertices=3)
         # Bodies.
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.cull_face = "back"
         ctx.wireframe = options.wireframe
-        prog = self._lit
+        prog = self._lit(options)
         _uniforms(prog, frame)
         self.shadow_texture.use(2)
-        prog["u_shadow_map"] = 2
-        prog["u_normal_map"] = 0
-        prog["u_height_map"] = 1
-        prog["u_view"] = options.view
+        _set(prog, "u_shadow_map", 2)
+        _set(prog, "u_normal_map", 0)
+        _set(prog, "u_height_map", 1)
         for gpu, model, maps, material, checker in draws:
             albedo, specular, shininess = GROUND_LOOK if checker else look(material)
-            prog["u_albedo"] = albedo
-            prog["u_specular"] = specular
-            prog["u_shininess"] = shininess
-            prog["u_checker"] = checker
+            _set(prog, "u_albedo", albedo)
+            _set(prog, "u_specular", specular)
+            _set(prog, "u_shininess", shininess)
+            _set(prog, "u_checker", checker)
             _matrix(prog, "u_model", model)
             normal_matrix = np.linalg.inv(model[:3, :3]).T
-            prog["u_normal_matrix"].write(normal_matrix.T.astype("f4").tobytes())
+            _matrix3(prog, "u_normal_matrix", normal_matrix)
             if maps is not None:
                 maps.normal.use(0)
                 maps.height.use(1)
                 w, h = maps.size
-                prog["u_uv_per_metre"] = (1.0 / (maps.texel_metres[0] * w), 1.0 / (maps.texel_metres[1] * h))
-                prog["u_max_depth"] = maps.max_dent_depth
-                prog["u_parallax"] = options.parallax
+                _set(prog, "u_uv_per_metre", (1.0 / (maps.texel_metres[0] * w), 1.0 / (maps.texel_metres[1] * h)))
+                _set(prog, "u_max_depth", maps.max_dent_depth)
             else:
                 self._flat_normal.use(0)
                 self._flat_height.use(1)
-                prog["u_parallax"] = False
-                prog["u_max_depth"] = 0.0
+                _set(prog, "u_max_depth", 0.0)
             gpu.vao(prog).render(moderngl.TRIANGLES)
         ctx.wireframe = False
         if options.contacts:
@@ -197,10 +198,10 @@ class Renderer:
         side = min(256, self.size[1] // 3)
         rect = (self.size[0] - side - 8, 8, side, side)
         slot.use(0)
-        self._overlay["u_texture"] = 0
-        self._overlay["u_rect"] = rect
-        self._overlay["u_extent"] = (w, h)
-        self._overlay["u_viewport"] = self.size
+        _set(self._overlay, "u_texture", 0)
+        _set(self._overlay, "u_rect", rect)
+        _set(self._overlay, "u_extent", (w, h))
+        _set(self._overlay, "u_viewport", self.size)
         self._empty_rect.render(moderngl.TRIANGLE_STRIP, vertices=4)
 
     def read_rgb(self) -> np.ndarray:
@@ -219,6 +220,17 @@ class Renderer:
 def _matrix(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
     if name in prog:
         prog[name].write(np.asarray(m, dtype="f4").T.tobytes())
+
+
+def _matrix3(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
+    if name in prog:
+        prog[name].write(np.asarray(m, dtype="f4").T.tobytes())
+
+
+def _set(prog: moderngl.Program, name: str, value) -> None:
+    """Set a uniform if the program has it (compilers drop the ones a variant does not use)."""
+    if name in prog:
+        prog[name] = value
 
 
 def _uniforms(prog: moderngl.Program, values: dict) -> None:

@@ -1,0 +1,151 @@
+"""The demo's logic without a window: every panel action and key is a method here, so the window
+is a thin shell over it and tests drive it headless."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dentdemo.app.simulation import Simulation
+from dentdemo.gl.context import GLContext
+from dentdemo.model.materials import MaterialLibrary
+from dentdemo.model.scene import BodySpec, Scene, ShapeSpec
+from dentdemo.render.camera import OrbitCamera
+from dentdemo.render.renderer import Renderer, RenderOptions
+
+DROP_HEIGHT = 1.0  # m above the clicked point
+
+
+@dataclass
+class PanelState:
+    """What the control panel sets."""
+
+    ball_material: str = "steel"
+    ball_radius: float = 0.04  # m
+    throw_speed: float = 6.0  # m/s
+    plate_material: str = "aluminium"
+    plate_side: float = 0.5  # m
+
+
+class DemoController:
+    def __init__(self, gl: GLContext, scene: Scene, materials: MaterialLibrary, size: tuple[int, int]) -> None:
+        self.gl = gl
+        self.materials = materials
+        self.sim = Simulation(gl, scene, materials)
+        self.renderer = Renderer(gl, size)
+        self.camera = OrbitCamera.from_eye(scene.camera.eye, scene.camera.target, scene.camera.fov_deg)
+        self.options = RenderOptions()
+        self.panel = PanelState()
+        self.paused = False
+        self._plates = 0
+
+    # -- simulation ----------------------------------------------------------------------------
+    def update(self, wall_seconds: float) -> int:
+        """Advance by wall time (scaled by the time scale) unless paused; returns steps taken."""
+        return 0 if self.paused else self.sim.advance(wall_seconds)
+
+    def toggle_pause(self) -> None:
+        self.paused = not self.paused
+
+    def single_step(self) -> None:
+        """One physics step (pauses first, as a debugger's step does)."""
+        self.paused = True
+        self.sim.step()
+
+    def reset(self) -> None:
+        self.sim.reset()
+
+    def set_time_scale(self, scale: float) -> None:
+        self.sim.time_scale = float(np.clip(scale, 0.0, 4.0))
+
+    # -- picking -------------------------------------------------------------------------------
+    def ground_point(self, ndc_x: float, ndc_y: float) -> np.ndarray | None:
+        """Where the view ray through a screen point meets the floor (y = 0), world metres."""
+        origin, direction = self.camera.ray(ndc_x, ndc_y, self.renderer.aspect)
+        if direction[1] > -1e-6:
+            return None
+        return origin + direction * (-origin[1] / direction[1])
+
+    def drop_ball(self, ndc_x: float, ndc_y: float) -> str | None:
+        """Left click: a ball of the panel's material and radius, 1 m above the clicked point."""
+        point = self.ground_point(ndc_x, ndc_y)
+        if point is None:
+            return None
+        p = self.panel
+        return self.sim.drop_ball(point + [0.0, DROP_HEIGHT, 0.0], (0, 0, 0), p.ball_material, p.ball_radius)
+
+    def throw_ball(self, ndc_x: float, ndc_y: float, strength: float = 1.0) -> str:
+        """Right drag: a ball from the camera along the view ray at the panel's speed."""
+        origin, direction = self.camera.ray(ndc_x, ndc_y, self.renderer.aspect)
+        p = self.panel
+        start = origin + direction * (p.ball_radius * 3 + 0.05)
+        speed = p.throw_speed * float(np.clip(strength, 0.2, 3.0))
+        return self.sim.drop_ball(start, direction * speed, p.ball_material, p.ball_radius)
+
+    def add_plate(self) -> str:
+        """A static plate of the panel's material on the floor under the orbit target."""
+        self._plates += 1
+        body_id = f"plate_{self._plates}"
+        while body_id in self.sim.bodies:
+            self._plates += 1
+            body_id = f"plate_{self._plates}"
+        t = self.camera.target
+        spec = BodySpec(
+            id=body_id,
+            shape=ShapeSpec("plate", side=self.panel.plate_side, thickness=0.02),
+            material=self.materials.get(self.panel.plate_material),
+            position=(float(t[0]), 0.02, float(t[2])),
+            static=True,
+            texels_per_metre=1024,
+        )
+        self.sim.world.add_body(spec)
+        self.sim._add_render_body(spec)
+        return body_id
+
+    # -- views ---------------------------------------------------------------------------------
+    def set_view(self, view: int) -> None:
+        self.options.view = int(view) if view in (0, 1, 2) else 0
+
+    def toggle(self, name: str) -> bool:
+        """Flip a boolean render option (parallax, wireframe, contacts, address_map, shadows)."""
+        value = not getattr(self.options, name)
+        setattr(self.options, name, value)
+        return value
+
+    def orbit(self, dx_pixels: float, dy_pixels: float) -> None:
+        self.camera.orbit(-dx_pixels * 0.005, dy_pixels * 0.005)
+
+    def pan(self, dx_pixels: float, dy_pixels: float) -> None:
+        h = self.renderer.size[1]
+        self.camera.pan(dx_pixels / h, dy_pixels / h)
+
+    def zoom(self, steps: float) -> None:
+        self.camera.zoom(math.pow(0.9, steps))
+
+    # -- frames --------------------------------------------------------------------------------
+    def render(self):
+        return self.renderer.render(self.sim, self.camera, self.options)
+
+    def resize(self, size: tuple[int, int]) -> None:
+        if size != self.renderer.size and min(size) > 0:
+            self.renderer.release()
+            self.renderer = Renderer(self.gl, size)
+
+    def stats_line(self, fps: float) -> str:
+        s = self.sim.stats
+        return (f"{fps:5.1f} fps | physics {s.physics_ms:5.2f} ms | carve {s.carve_ms_per_hit:5.2f} ms/hit | "
+                f"hits {s.hits} | queued {len(self.sim.queue)} | bodies {len(self.sim.bodies)}")
+
+    def screenshot(self, path: Path) -> Path:
+        from dentdemo.app.headless import save_png
+
+        self.render()
+        save_png(self.renderer.read_rgb(), path)
+        return path
+
+    def close(self) -> None:
+        self.renderer.release()
+        self.sim.close()

@@ -1,0 +1,220 @@
+"""The interactive demo: a glfw window with an imgui-bundle panel over a DemoController.
+
+Mouse: left drag orbits, a left click drops a ball above the clicked point, right drag throws a
+ball along the view ray (longer drags throw harder), middle drag or shift+left drag pans, the
+wheel zooms. Keys: Space pause, N single step, R reset, P screenshot, 1/2/3 shaded/height/normal
+view, W wireframe, C contacts, A address map, X parallax, Esc quit.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from dentdemo.app.controller import DemoController
+from dentdemo.gl.context import GLContext, create_window
+from dentdemo.model.materials import MaterialLibrary
+from dentdemo.model.scene import Scene
+
+CLICK_PIXELS = 4  # a press that moves less than this is a click, not a drag
+
+
+class DemoWindow:
+    def __init__(self, scene: Scene, materials: MaterialLibrary, size: tuple[int, int] = (1280, 720)) -> None:
+        from imgui_bundle import imgui  # before glfw: pyGLFW must use imgui-bundle's libglfw
+
+        import glfw
+
+        self.glfw = glfw
+        self.imgui = imgui
+        self.gl: GLContext = create_window(*size, "dentdemo")
+        self.window = self.gl.window
+        fb = glfw.get_framebuffer_size(self.window)
+        self.app = DemoController(self.gl, scene, materials, (max(fb[0], 16), max(fb[1], 16)))
+        self._press: dict[int, tuple[float, float]] = {}
+        self._last_cursor = (0.0, 0.0)
+        self._shots = 0
+        glfw.set_mouse_button_callback(self.window, self._on_button)
+        glfw.set_cursor_pos_callback(self.window, self._on_cursor)
+        glfw.set_scroll_callback(self.window, self._on_scroll)
+        glfw.set_key_callback(self.window, self._on_key)
+        imgui.create_context()
+        imgui.get_io().set_ini_filename("")
+        window_address = _address(self.window)
+        imgui.backends.glfw_init_for_opengl(window_address, True)
+        imgui.backends.opengl3_init("#version 330 core")
+
+    # -- input ---------------------------------------------------------------------------------
+    def _ui_wants_mouse(self) -> bool:
+        return bool(self.imgui.get_io().want_capture_mouse)
+
+    def _ndc(self, x: float, y: float) -> tuple[float, float]:
+        w, h = self.glfw.get_window_size(self.window)
+        return x / max(w, 1) * 2 - 1, 1 - y / max(h, 1) * 2
+
+    def _on_button(self, window, button, action, mods) -> None:
+        glfw = self.glfw
+        x, y = glfw.get_cursor_pos(window)
+        if action == glfw.PRESS:
+            if not self._ui_wants_mouse():
+                self._press[button] = (x, y, mods)
+            return
+        start = self._press.pop(button, None)
+        if start is None:
+            return
+        moved = abs(x - start[0]) + abs(y - start[1])
+        if button == glfw.MOUSE_BUTTON_LEFT and moved < CLICK_PIXELS and not start[2] & glfw.MOD_SHIFT:
+            self.app.drop_ball(*self._ndc(x, y))
+        elif button == glfw.MOUSE_BUTTON_RIGHT:
+            h = glfw.get_window_size(window)[1]
+            self.app.throw_ball(*self._ndc(x, y), strength=0.5 + moved / max(h, 1) * 2)
+
+    def _on_cursor(self, window, x, y) -> None:
+        glfw = self.glfw
+        dx, dy = x - self._last_cursor[0], y - self._last_cursor[1]
+        self._last_cursor = (x, y)
+        left = self._press.get(glfw.MOUSE_BUTTON_LEFT)
+        if self._press.get(glfw.MOUSE_BUTTON_MIDDLE) or (left and left[2] & glfw.MOD_SHIFT):
+            self.app.pan(dx, dy)
+        elif left:
+            self.app.orbit(dx, dy)
+
+    def _on_scroll(self, window, dx, dy) -> None:
+        if not self._ui_wants_mouse():
+            self.app.zoom(dy)
+
+    def _on_key(self, window, key, scancode, action, mods) -> None:
+        glfw = self.glfw
+        if action != glfw.PRESS or self.imgui.get_io().want_capture_keyboard:
+            return
+        actions = {
+            glfw.KEY_SPACE: self.app.toggle_pause,
+            glfw.KEY_N: self.app.single_step,
+            glfw.KEY_R: self.app.reset,
+            glfw.KEY_P: self._screenshot_key,
+            glfw.KEY_1: lambda: self.app.set_view(0),
+            glfw.KEY_2: lambda: self.app.set_view(1),
+            glfw.KEY_3: lambda: self.app.set_view(2),
+            glfw.KEY_W: lambda: self.app.toggle("wireframe"),
+            glfw.KEY_C: lambda: self.app.toggle("contacts"),
+            glfw.KEY_A: lambda: self.app.toggle("address_map"),
+            glfw.KEY_X: lambda: self.app.toggle("parallax"),
+            glfw.KEY_ESCAPE: lambda: glfw.set_window_should_close(window, True),
+        }
+        if key in actions:
+            actions[key]()
+
+    def _screenshot_key(self) -> None:
+        self._shots += 1
+        self.screenshot(Path(f"dentdemo_{self._shots:03d}.png"))
+
+    # -- panel ---------------------------------------------------------------------------------
+    def _panel(self, fps: float, frame_ms: float) -> None:
+        imgui = self.imgui
+        app, p = self.app, self.app.panel
+        imgui.set_next_window_pos((10, 10), imgui.Cond_.first_use_ever)
+        imgui.set_next_window_size((300, 0), imgui.Cond_.first_use_ever)
+        imgui.begin("dentdemo")
+        names = app.materials.names()
+        _, index = imgui.combo("ball material", names.index(p.ball_material), names)
+        p.ball_material = names[index]
+        _, p.ball_radius = imgui.slider_float("ball radius (m)", p.ball_radius, 0.01, 0.15)
+        _, p.throw_speed = imgui.slider_float("throw speed (m/s)", p.throw_speed, 0.5, 25.0)
+        _, index = imgui.combo("new plate material", names.index(p.plate_material), names)
+        p.plate_material = names[index]
+        if imgui.button("add plate at target"):
+            app.add_plate()
+        imgui.same_line()
+        if imgui.button("reset"):
+            app.reset()
+        changed, scale = imgui.slider_float("time scale", app.sim.time_scale, 0.0, 2.0)
+        if changed:
+            app.set_time_scale(scale)
+        if imgui.button("resume" if app.paused else "pause"):
+            app.toggle_pause()
+        imgui.same_line()
+        if imgui.button("step"):
+            app.single_step()
+        imgui.separator()
+        _, app.options.view = imgui.combo("view", app.options.view, ["shaded", "height map", "normal map"])
+        for name in ("parallax", "wireframe", "contacts", "address_map", "shadows"):
+            changed, _ = imgui.checkbox(name.replace("_", " "), getattr(app.options, name))
+            if changed:
+                app.toggle(name)
+        changed, denting = imgui.checkbox("denting", app.sim.denting)
+        if changed:
+            app.sim.denting = denting
+        imgui.separator()
+        s = app.sim.stats
+        imgui.text(f"fps {fps:.1f}   frame {frame_ms:.2f} ms")
+        imgui.text(f"physics {s.physics_ms:.2f} ms   carve {s.carve_ms_per_hit:.2f} ms/hit")
+        imgui.text(f"hits {s.hits}   impacts {s.impacts}   queued {len(app.sim.queue)}")
+        imgui.text(f"bodies {len(app.sim.bodies)}   t = {app.sim.world.time:.2f} s")
+        imgui.end()
+
+    # -- loop ----------------------------------------------------------------------------------
+    def screenshot(self, path: Path) -> Path:
+        """The window's image (scene and panel) as a PNG."""
+        from dentdemo.app.headless import save_png
+
+        ctx = self.gl.ctx
+        w, h = self.glfw.get_framebuffer_size(self.window)
+        pixels = self.gl.read_framebuffer(ctx.screen, 3)[::-1]
+        save_png(pixels[:h, :w].copy(), path)
+        return path
+
+    def run(self, screenshot: Path | None = None, exit_after: float | None = None) -> int:
+        """The frame loop. With exit_after, the simulation runs at its fixed dt per frame (so the
+        image is deterministic), the window's image is saved after that many simulated seconds,
+        and the window closes."""
+        glfw, imgui = self.glfw, self.imgui
+        ctx = self.gl.ctx
+        last = time.perf_counter()
+        fps, frame_ms = 0.0, 0.0
+        title_at = last
+        while not glfw.window_should_close(self.window):
+            glfw.poll_events()
+            now = time.perf_counter()
+            wall = now - last
+            last = now
+            if exit_after is not None:
+                if not self.app.paused:
+                    self.app.sim.step()
+            else:
+                self.app.update(wall)
+            self.app.resize(tuple(glfw.get_framebuffer_size(self.window)))
+            output = self.app.render()
+            ctx.copy_framebuffer(ctx.screen, output)
+            imgui.backends.opengl3_new_frame()
+            imgui.backends.glfw_new_frame()
+            imgui.new_frame()
+            self._panel(fps, frame_ms)
+            imgui.render()
+            ctx.screen.use()
+            imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+            frame_ms = (time.perf_counter() - now) * 1e3
+            fps = 0.9 * fps + 0.1 * (1.0 / max(wall, 1e-6)) if fps else 1.0 / max(wall, 1e-6)
+            if now - title_at > 0.5:
+                glfw.set_window_title(self.window, f"dentdemo | {self.app.stats_line(fps)}")
+                title_at = now
+            if exit_after is not None and self.app.sim.world.time >= exit_after - 1e-9:
+                if screenshot is not None:
+                    self.screenshot(screenshot)
+                break
+            glfw.swap_buffers(self.window)
+        self.close()
+        return 0
+
+    def close(self) -> None:
+        self.imgui.backends.opengl3_shutdown()
+        self.imgui.backends.glfw_shutdown()
+        self.imgui.destroy_context()
+        self.app.close()
+        self.gl.release()
+        self.glfw.terminate()
+
+
+def _address(window) -> int:
+    import ctypes
+
+    return ctypes.cast(window, ctypes.c_void_p).value or 0

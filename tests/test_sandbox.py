@@ -1,0 +1,213 @@
+"""The sandbox: deterministic headless renders, dents visible only where impacts were, the real
+window under Xvfb, and the panel's actions through the controller API."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from dentdemo.app.controller import DemoController
+from dentdemo.app.headless import render_headless
+from dentdemo.model.materials import load_materials
+from dentdemo.model.scene import load_scene
+from dentdemo.render.camera import OrbitCamera
+
+ROOT = Path(__file__).resolve().parents[1]
+BALL_DROP = ROOT / "assets" / "scenes" / "ball_drop.toml"
+SIZE = (480, 270)
+FRAMES = 90
+
+
+def _png(path: Path) -> np.ndarray:
+    return np.asarray(Image.open(path).convert("RGB"), dtype=np.int16)
+
+
+@pytest.fixture(scope="module")
+def renders(tmp_path_factory):
+    out = tmp_path_factory.mktemp("renders")
+    paths = {}
+    for name, denting in (("a", True), ("b", True), ("flat", False)):
+        paths[name] = out / f"{name}.png"
+        render_headless(BALL_DROP, [], FRAMES, paths[name], SIZE, denting=denting)
+    return paths
+
+
+def test_headless_render_is_pixel_identical_twice(renders):
+    a, b = _png(renders["a"]), _png(renders["b"])
+    assert a.shape == (SIZE[1], SIZE[0], 3)
+    np.testing.assert_array_equal(a, b)
+    assert a.std() > 10  # a scene, not a blank image
+
+
+def test_dents_change_the_image_only_near_impacts(renders, gl):
+    dented, flat = _png(renders["a"]), _png(renders["flat"])
+    changed = np.abs(dented - flat).sum(axis=2) > 24
+    assert changed.sum() > 20, "dents must be visible"
+    # Where were the dents carved? Re-run the same deterministic simulation and project them.
+    lib = load_materials()
+    scene = load_scene(BALL_DROP, lib)
+    from dentdemo.app.simulation import Simulation
+
+    sim = Simulation(gl, scene, lib)
+    for _ in range(FRAMES):
+        sim.step()
+    points = np.array(sim.carved_points)
+    camera = OrbitCamera.from_eye(scene.camera.eye, scene.camera.target, scene.camera.fov_deg)
+    pixels = camera.project(points, SIZE[0] / SIZE[1], SIZE)
+    ys, xs = np.nonzero(changed)
+    dist = np.min(np.hypot(xs[:, None] - pixels[None, :, 0], ys[:, None] - pixels[None, :, 1]), axis=1)
+    # Every changed pixel lies within 30 px (a dent plus the ball sitting in it) of an impact.
+    assert np.percentile(dist, 99) < 30 and dist.max() < 45
+    sim.close()
+
+
+def test_render_writes_every_frame_and_maps(tmp_path):
+    out = tmp_path / "frame_%04d.png"
+    result = subprocess.run(
+        [sys.executable, "-m", "dentdemo", "render", "--frames", "3", "--out", str(out), "--size", "64x48",
+         "--maps-dir", str(tmp_path / "maps")],
+        capture_output=True, text=True,
+    )
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in tmp_path.glob("frame_*.png")) == ["frame_0000.png", "frame_0001.png", "frame_0002.png"]
+    height = np.load(tmp_path / "maps" / "steel_plate_height.npy")
+    assert height.dtype == np.float32 and height.shape == (512, 512)
+    assert (tmp_path / "maps" / "steel_plate_normal.png").is_file()
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["--size", "big"], "--size"),
+    (["--frames", "0"], "--frames"),
+    (["--scene", "/nonexistent.toml"], "/nonexistent.toml"),
+])
+def test_render_bad_arguments(tmp_path, args, fragment):
+    result = subprocess.run([sys.executable, "-m", "dentdemo", "render", "--out", str(tmp_path / "x.png"), *args],
+                            capture_output=True, text=True)
+    assert result.returncode == 1 and fragment in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_panel_actions_through_the_controller(gl, tmp_path):
+    lib = load_materials()
+    app = DemoController(gl, load_scene(BALL_DROP, lib), lib, (320, 180))
+    before = len(app.sim.bodies)
+    # Drop: a ball 1 m above the floor point under the screen centre.
+    app.panel.ball_material, app.panel.ball_radius = "copper", 0.03
+    ball = app.drop_ball(0.0, 0.0)
+    assert ball is not None and len(app.sim.bodies) == before + 1
+    spec = app.sim.bodies[ball].spec
+    assert spec.material.name == "copper" and spec.shape.radius == 0.03
+    floor = app.ground_point(0.0, 0.0)
+    np.testing.assert_allclose(spec.position, floor + [0, 1.0, 0], atol=1e-9)
+    # Throw: along the view ray at the panel's speed.
+    app.panel.throw_speed = 5.0
+    thrown = app.throw_ball(0.1, -0.1)
+    v = np.array(app.sim.bodies[thrown].spec.velocity)
+    assert np.linalg.norm(v) == pytest.approx(5.0)
+    _, direction = app.camera.ray(0.1, -0.1, app.renderer.aspect)
+    np.testing.assert_allclose(v / 5.0, direction, atol=1e-9)
+    # Plate of the panel's material under the orbit target.
+    app.panel.plate_material = "copper"
+    plate = app.add_plate()
+    assert app.sim.bodies[plate].spec.material.name == "copper" and app.sim.bodies[plate].maps is not None
+    # Pause, single step, time scale.
+    app.toggle_pause()
+    t = app.sim.world.time
+    assert app.update(0.5) == 0 and app.sim.world.time == t
+    app.single_step()
+    assert app.sim.world.time == pytest.approx(t + app.sim.scene.physics.dt)
+    app.toggle_pause()
+    app.set_time_scale(0.5)
+    assert app.update(4 * app.sim.scene.physics.dt) == 2
+    # Views and toggles render without error.
+    for view in (0, 1, 2):
+        app.set_view(view)
+        app.render()
+    for name in ("parallax", "wireframe", "contacts", "address_map", "shadows"):
+        app.toggle(name)
+        app.render()
+    shot = app.screenshot(tmp_path / "shot.png")
+    assert Image.open(shot).size == (320, 180)
+    # Reset: back to the scene's bodies.
+    app.reset()
+    assert len(app.sim.bodies) == before and app.sim.world.time == 0.0
+    app.close()
+
+
+def test_impact_queue_never_drops_a_hit(gl):
+    lib = load_materials()
+    scene = load_scene(BALL_DROP, lib)
+    from dentdemo.app.simulation import Simulation
+
+    sim = Simulation(gl, scene, lib, carve_budget=1)
+    for i in range(30):  # a burst: 30 balls side by side, dropped together
+        sim.drop_ball((-0.5 + i * 0.035, 0.3, -0.3), material="steel", radius=0.015)
+    total_requests = 0
+    for _ in range(40):
+        before = len(sim.queue) + sim.stats.hits
+        sim.step()
+        total_requests += len(sim.queue) + sim.stats.hits - before
+        assert sim.stats.hits <= sim.stats.frames  # the budget holds
+    while sim.queue:
+        sim.step()
+    assert sim.stats.hits >= total_requests > 10
+    sim.close()
+
+
+def _xvfb_display():
+    if shutil.which("Xvfb") is None:
+        return None
+    display = ":%d" % (90 + os.getpid() % 500)
+    proc = subprocess.Popen(["Xvfb", display, "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(1.0)
+    if proc.poll() is not None:
+        return None
+    return display, proc
+
+
+@pytest.fixture(scope="module")
+def xvfb():
+    started = _xvfb_display()
+    if started is None:
+        pytest.skip("Xvfb is not installed (Debian package xvfb): the real-window test needs it")
+    display, proc = started
+    yield display
+    proc.terminate()
+    proc.wait(timeout=10)
+
+
+def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):
+    shot = tmp_path / "shot.png"
+    env = {**os.environ, "DISPLAY": xvfb}
+    result = subprocess.run(
+        [sys.executable, "-m", "dentdemo", "demo", "--scene", str(BALL_DROP), "--screenshot", str(shot),
+         "--exit-after", "1"],
+        capture_output=True, text=True, env=env, timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    image = _png(shot)
+    assert image.shape == (720, 1280, 3)
+    # The scene and the panel are there: many distinct colours, the panel's dark box top left.
+    assert len(np.unique(image.reshape(-1, 3), axis=0)) > 500
+    assert image[30:200, 20:250].mean() < image[400:700, 500:1200].mean()
+
+
+def test_demo_without_display_renders_headless(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    result = subprocess.run(
+        [sys.executable, "-m", "dentdemo", "demo", "--screenshot", str(tmp_path / "d.png"), "--exit-after", "0.2"],
+        capture_output=True, text=True, env=env, cwd=tmp_path,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "no display" in result.stderr and "headless" in result.stderr
+    assert Image.open(tmp_path / "d.png").size == (1280, 720)
