@@ -23,6 +23,7 @@ def gl_session():
 def gl(gl_session):
     """The session context with default state; asserts no GL error before and after the test."""
     ctx = gl_session.ctx
+    gl_session.make_current()  # tests may have made and released contexts of their own
     assert ctx.error == "GL_NO_ERROR", "a GL error was pending before the test"
     _reset_state(ctx)
     yield gl_session

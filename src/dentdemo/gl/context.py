@@ -63,6 +63,16 @@ class GLContext:
         raw = fbo.read(components=components, alignment=1)
         return np.frombuffer(raw, dtype=np.uint8).reshape(fbo.height, fbo.width, components)
 
+    def make_current(self) -> None:
+        """Make this context current again (after another context in the process was made or
+        released: EGL has one current context per thread)."""
+        if self.window is not None:
+            import glfw
+
+            glfw.make_context_current(self.window)
+        else:
+            self.ctx.__enter__()
+
     def check_error(self, where: str) -> None:
         """Raise if OpenGL has a pending error."""
         err = self.ctx.error
