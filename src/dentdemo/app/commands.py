@@ -6,6 +6,7 @@ import argparse
 from collections.abc import Callable
 
 from dentdemo.app import demo, headless, indent
+from dentdemo.bench import run as bench
 from dentdemo.physics import simulate
 
-REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [indent.register, simulate.register, headless.register, demo.register]
+REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [indent.register, simulate.register, headless.register, demo.register, bench.register]

@@ -4,6 +4,9 @@ hit follows its footprint (the collision camera's pixels), never the size of the
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 
 import moderngl
@@ -81,6 +84,8 @@ class Carver:
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
         self.hits = 0
+        #: Wraps each pass when set (the benchmark's GPU timer queries); names as in DESIGN.md.
+        self.pass_timer: Callable[[str], AbstractContextManager] | None = None
 
     # -- public --------------------------------------------------------------------------------
     def carve(
@@ -108,13 +113,18 @@ class Carver:
             jobs.append(self._job(tool, target, ContactFrame(contact.point, -direction), tool_depth))
         ctx = self.gl.ctx
         saved_viewport = ctx.viewport
-        for slot, job in zip(self._slots, jobs, strict=False):
-            self._address_pass(slot, job)
-            self._peel_pass(slot, job)
-        for slot, job in zip(self._slots, jobs, strict=False):
-            self._footprint_pass(slot, job, self._scatter, job.target.maps.height_fbo, blend_min=True)
-        for slot, job in zip(self._slots, jobs, strict=False):
-            self._footprint_pass(slot, job, self._normals, job.target.maps.normal_fbo, blend_min=False)
+        with self._timed("address"):
+            for slot, job in zip(self._slots, jobs, strict=False):
+                self._address_pass(slot, job)
+        with self._timed("peel"):
+            for slot, job in zip(self._slots, jobs, strict=False):
+                self._peel_pass(slot, job)
+        with self._timed("scatter"):
+            for slot, job in zip(self._slots, jobs, strict=False):
+                self._footprint_pass(slot, job, self._scatter, job.target.maps.height_fbo, blend_min=True)
+        with self._timed("normals"):
+            for slot, job in zip(self._slots, jobs, strict=False):
+                self._footprint_pass(slot, job, self._normals, job.target.maps.normal_fbo, blend_min=False)
         ctx.viewport = saved_viewport
         ctx.scissor = None
         ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.PROGRAM_POINT_SIZE)
@@ -124,6 +134,24 @@ class Carver:
             self.last_jobs = jobs
             self.hits += 1
         return jobs
+
+    def _timed(self, name: str) -> AbstractContextManager:
+        return self.pass_timer(name) if self.pass_timer else contextlib.nullcontext()
+
+    def measure_passes(self, target: CarveBody, tool: CarveBody, contact: ContactFrame,
+                       target_depth: float, tool_depth: float = 0.0) -> list[CarveJob]:
+        """Passes 1-3 only, for the CPU reference path (which then reads their buffers back)."""
+        jobs = [self._job(target, tool, contact, target_depth)]
+        if _positive(tool_depth):
+            jobs.append(self._job(tool, target, ContactFrame(contact.point, -contact.direction), tool_depth))
+        for slot, job in zip(self._slots, jobs, strict=False):
+            self._address_pass(slot, job)
+            self._peel_pass(slot, job)
+        self.gl.ctx.depth_func = "<"
+        return jobs
+
+    def slot(self, index: int) -> _Scratch:
+        return self._slots[index]
 
     def slot_textures(self, slot: int) -> moderngl.Texture:
         """The address map of a slot of the last hit (for the debug view)."""

@@ -57,6 +57,20 @@ class GLContext:
         data = data.reshape(texture.height, texture.width, texture.components)
         return np.array(data[:, :, :comps], dtype=np.float32 if dtype != np.uint8 else np.uint8)
 
+    def read_region(
+        self,
+        fbo: moderngl.Framebuffer,
+        viewport: tuple[int, int, int, int],
+        components: int,
+        attachment: int = 0,
+    ) -> np.ndarray:
+        """Read a rectangle (x, y, width, height) of a float attachment (-1: the depth buffer) as
+        float32 [rows, cols, components]. CPU reference path of the benchmark and tests only."""
+        self.reads += 1
+        x, y, w, h = viewport
+        raw = fbo.read(viewport=viewport, components=components, attachment=attachment, dtype="f4")
+        return np.frombuffer(raw, dtype=np.float32).reshape(h, w, components)
+
     def read_framebuffer(self, fbo: moderngl.Framebuffer, components: int = 3) -> np.ndarray:
         """Read an 8-bit colour framebuffer as uint8 [rows from the bottom, cols, components]."""
         self.reads += 1
