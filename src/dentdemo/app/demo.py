@@ -7,7 +7,7 @@ import os
 import sys
 from pathlib import Path
 
-from dentdemo.app.headless import render_headless, scene_path
+from dentdemo.app.headless import add_scene_arguments, render_headless, scene_path
 from dentdemo.errors import DentdemoError, GLUnavailableError
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
@@ -47,8 +47,7 @@ def _headless_instead(args: argparse.Namespace, path: Path, why: str) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the interactive ball-drop sandbox (headless PNG without a display)")
-    p.add_argument("--scene", metavar="FILE", help="scene TOML (default: the ball-drop scene)")
-    p.add_argument("--materials", action="append", default=[], metavar="FILE")
+    add_scene_arguments(p)
     p.add_argument("--screenshot", metavar="PNG", help="save the window's image (with --exit-after)")
     p.add_argument("--exit-after", type=float, metavar="SECONDS",
                    help="simulated seconds after which to save the screenshot and exit")

@@ -106,10 +106,16 @@ def run_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_scene_arguments(p: argparse.ArgumentParser) -> None:
+    """--scene and --materials, as every command that loads a scene takes them."""
+    p.add_argument("--scene", metavar="FILE", help="scene TOML (default: the ball-drop scene)")
+    p.add_argument("--materials", action="append", default=[], metavar="FILE",
+                   help="a TOML file that adds or overrides material presets (repeatable)")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("render", help="simulate a scene headless (EGL) and write PNG frames")
-    p.add_argument("--scene", metavar="FILE", help="scene TOML (default: the ball-drop scene)")
-    p.add_argument("--materials", action="append", default=[], metavar="FILE")
+    add_scene_arguments(p)
     p.add_argument("--frames", type=int, default=120, help="simulation frames at the scene's dt")
     p.add_argument("--out", required=True, metavar="PNG", help="output image; %%04d writes every frame")
     p.add_argument("--size", default="1280x720", metavar="WxH")

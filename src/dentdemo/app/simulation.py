@@ -165,11 +165,8 @@ class Simulation:
 
     def remove_body(self, body_id: str) -> None:
         self.world.remove_body(body_id)
-        body = self.bodies.pop(body_id)
+        _release_body(self.bodies.pop(body_id))
         self.queue = deque(r for r in self.queue if body_id not in (r.impact.body_a, r.impact.body_b))
-        body.gpu_mesh.release()
-        if body.maps is not None:
-            body.maps.release()
 
     def model(self, body_id: str) -> NDArray[np.float64]:
         return self.world.model_matrix(body_id) if body_id in self.world.bodies else np.eye(4)
@@ -181,7 +178,7 @@ class Simulation:
         impacts = self.world.step()
         for gone in self.world.removed:
             if gone in self.bodies:
-                self.bodies.pop(gone).gpu_mesh.release()
+                _release_body(self.bodies.pop(gone))
         self.world.removed.clear()
         physics_ms = (time.perf_counter() - start) * 1e3
         self.last_impacts = impacts
@@ -249,10 +246,7 @@ class Simulation:
     # -- lifecycle -----------------------------------------------------------------------------
     def reset(self) -> None:
         """Back to the scene as loaded: bodies, poses and pristine maps."""
-        for body in self.bodies.values():
-            body.gpu_mesh.release()
-            if body.maps is not None:
-                body.maps.release()
+        self._release_bodies()
         self.world.close()
         self.bodies.clear()
         self.queue.clear()
@@ -278,10 +272,17 @@ class Simulation:
             written += [directory / f"{body_id}_height.npy", directory / f"{body_id}_normal.png"]
         return written
 
-    def close(self) -> None:
+    def _release_bodies(self) -> None:
         for body in self.bodies.values():
-            body.gpu_mesh.release()
-            if body.maps is not None:
-                body.maps.release()
+            _release_body(body)
+
+    def close(self) -> None:
+        self._release_bodies()
         self.carver.release()
         self.world.close()
+
+
+def _release_body(body: SimBody) -> None:
+    body.gpu_mesh.release()
+    if body.maps is not None:
+        body.maps.release()

@@ -74,18 +74,35 @@ class Mesh:
             float((np.linalg.norm(dpdv, axis=1) * w).sum()),
         )
 
+    def _bounds(self) -> tuple[NDArray[np.float64], ...]:
+        """Cached float64 corners and each triangle's bounding sphere (centre, radius)."""
+        cached = getattr(self, "_bounds_cache", None)
+        if cached is None or cached[0].shape[0] != len(self.indices):
+            a, b, c = self.triangle_corners()
+            centre = (a + b + c) / 3.0
+            radius = np.sqrt(np.max([((x - centre) ** 2).sum(1) for x in (a, b, c)], axis=0))
+            cached = (a, b, c, centre, radius)
+            self._bounds_cache = cached
+        return cached
+
     def surface_at(self, point: NDArray[np.float64]) -> SurfacePoint:
         """The surface point nearest to `point` (local metres), with its uv and tangent frame."""
         p = np.asarray(point, dtype=np.float64)
-        a, b, c = self.triangle_corners()
-        closest, bary = _closest_on_triangles(p, a, b, c)
+        a, b, c, centre, radius = self._bounds()
+        # Only triangles whose bounding sphere may hold the nearest point need the exact test.
+        to_centre = np.sqrt(((centre - p) ** 2).sum(1))
+        candidates = np.nonzero(to_centre - radius <= (to_centre + radius).min())[0]
+        closest, bary = _closest_on_triangles(p, a[candidates], b[candidates], c[candidates])
         dist = np.linalg.norm(closest - p, axis=1)
-        k = int(np.argmin(dist))
-        uv = (self.uvs.astype(np.float64)[self.indices[k]] * bary[k][:, None]).sum(axis=0)
+        best = int(np.argmin(dist))
+        k = int(candidates[best])
+        closest, bary, dist = closest[best:best + 1], bary[best:best + 1], dist[best:best + 1]
+        a, b, c = a[k:k + 1], b[k:k + 1], c[k:k + 1]
+        uv = (self.uvs.astype(np.float64)[self.indices[k]] * bary[0][:, None]).sum(axis=0)
         dpdu, dpdv, _ = _triangle_derivatives(self, np.array([k]))
-        n = np.cross(b[k] - a[k], c[k] - a[k])
+        n = np.cross(b[0] - a[0], c[0] - a[0])
         n /= max(np.linalg.norm(n), 1e-30)
-        return SurfacePoint(uv, dpdu[0], dpdv[0], n, float(dist[k]))
+        return SurfacePoint(uv, dpdu[0], dpdv[0], n, float(dist[0]))
 
     # -- clean-up ------------------------------------------------------------------------------
     def _drop_degenerate(self) -> None:

@@ -43,6 +43,15 @@ class TableReader:
     def has(self, key: str) -> bool:
         return key in self.table
 
+    def _present(self, key: str, default: object | None) -> bool:
+        """Mark `key` as read; False when it is absent and has a default, raise when required."""
+        self._used.add(key)
+        if key in self.table:
+            return True
+        if default is None:
+            raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
+        return False
+
     def number(
         self,
         key: str,
@@ -53,11 +62,8 @@ class TableReader:
         min_inclusive: bool = True,
         max_inclusive: bool = True,
     ) -> float:
-        self._used.add(key)
-        if key not in self.table:
-            if default is None:
-                raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
-            return default
+        if not self._present(key, default):
+            return float(default)
         value = self.table[key]
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, "must be a number")
@@ -73,10 +79,7 @@ class TableReader:
         return value
 
     def vector(self, key: str, default: Sequence[float] | None, length: int = 3) -> tuple[float, ...]:
-        self._used.add(key)
-        if key not in self.table:
-            if default is None:
-                raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
+        if not self._present(key, default):
             return tuple(float(x) for x in default)
         value = self.table[key]
         if not isinstance(value, list) or len(value) != length:
@@ -91,10 +94,7 @@ class TableReader:
         return tuple(out)
 
     def string(self, key: str, default: str | None = None, choices: Sequence[str] = ()) -> str:
-        self._used.add(key)
-        if key not in self.table:
-            if default is None:
-                raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
+        if not self._present(key, default):
             return default
         value = self.table[key]
         if not isinstance(value, str):
@@ -104,8 +104,7 @@ class TableReader:
         return value
 
     def boolean(self, key: str, default: bool) -> bool:
-        self._used.add(key)
-        if key not in self.table:
+        if not self._present(key, default):
             return default
         value = self.table[key]
         if not isinstance(value, bool):
