@@ -7,9 +7,19 @@ import numpy as np
 from dentdemo.app.indent import PressSetup, make_setup, shape_from_args
 
 
-def setup(gl, target="plate", target_size=(1.0,), tool="sphere", tool_size=(0.05,), map_size=512,
-          tool_map_size=256, offset=(0.0, 0.0), direction=(0.0, -1.0, 0.0), max_dent_depth=0.1,
-          tool_height=None) -> PressSetup:
+def setup(
+    gl,
+    target="plate",
+    target_size=(1.0,),
+    tool="sphere",
+    tool_size=(0.05,),
+    map_size=512,
+    tool_map_size=256,
+    offset=(0.0, 0.0),
+    direction=(0.0, -1.0, 0.0),
+    max_dent_depth=0.1,
+    tool_height=None,
+) -> PressSetup:
     return make_setup(
         gl,
         shape_from_args(target, list(target_size), "target"),

@@ -36,7 +36,9 @@ def _reset_state(ctx) -> None:
     import moderngl
 
     ctx.screen.use() if ctx.screen is not None else None
-    ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
+    ctx.disable(
+        moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE
+    )
     ctx.depth_func = "<"
     ctx.blend_equation = moderngl.FUNC_ADD
     ctx.blend_func = moderngl.DEFAULT_BLENDING

@@ -7,8 +7,8 @@ import sys
 
 import numpy as np
 import pytest
-from carve_helpers import heights, release, setup
 
+from carve_helpers import heights, release, setup
 from dentdemo.app.indent import cap_error
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
@@ -16,11 +16,35 @@ from dentdemo.carve.cpu_reference import CpuReference
 
 def test_bench_tiny_json_schema(tmp_path):
     out, plot = tmp_path / "bench.json", tmp_path / "bench.png"
-    result = subprocess.run([sys.executable, "-m", "dentdemo", "bench", "--tiny", "--json", str(out),
-                             "--plot", str(plot)], capture_output=True, text=True, timeout=600)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "dentdemo",
+            "bench",
+            "--tiny",
+            "--json",
+            str(out),
+            "--plot",
+            str(plot),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stderr
     data = json.loads(out.read_text())
-    assert {"schema", "mode", "machine", "press", "per_hit", "passes", "frames", "memory", "agreement"} <= set(data)
+    assert {
+        "schema",
+        "mode",
+        "machine",
+        "press",
+        "per_hit",
+        "passes",
+        "frames",
+        "memory",
+        "agreement",
+    } <= set(data)
     assert {"renderer", "gl_version", "cores"} <= set(data["machine"])
     for row in data["per_hit"]:
         assert {"map_size", "gpu_ms", "cpu_ms", "cpu_over_gpu", "reps", "camera_pixels"} <= set(row)
@@ -44,7 +68,10 @@ def test_cpu_reference_matches_the_gpu_path(gl, offset, depth):
     CpuReference(gl, carver).carve(cpu.target, cpu.tool, cpu.contact, depth, depth / 5)
     for a, b in ((gpu.target, cpu.target), (gpu.tool, cpu.tool)):
         np.testing.assert_allclose(heights(gl, b), heights(gl, a), atol=1e-5, rtol=0)
-        assert np.abs(gl.read(a.maps.normal).astype(int) - gl.read(b.maps.normal).astype(int)).max() <= 2
+        assert (
+            np.abs(gl.read(a.maps.normal).astype(int) - gl.read(b.maps.normal).astype(int)).max()
+            <= 2
+        )
     # And both meet the spherical-cap oracle.
     assert cap_error(heights(gl, cpu.target), 1.0, offset, 0.05, depth)["rms_error_rel"] < 0.02
     carver.release()

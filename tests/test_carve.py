@@ -8,8 +8,8 @@ import math
 import moderngl
 import numpy as np
 import pytest
-from carve_helpers import cap, heights, plate_xz, release, setup
 
+from carve_helpers import cap, heights, plate_xz, release, setup
 from dentdemo.app.indent import cap_error, footprint_radius
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import Carver
@@ -44,7 +44,9 @@ def test_spherical_cap(gl, carver, radius, depth, offset):
     assert stats["volume_m3"] == pytest.approx(stats["volume_expected_m3"], rel=0.03)
     # Nothing outside the footprint (plus a texel) changed.
     x, z = plate_xz(h.shape, 1.0)
-    far = (x - offset[0]) ** 2 + (z - offset[1]) ** 2 > (stats["footprint_radius_expected_m"] + 2 * texel) ** 2
+    far = (x - offset[0]) ** 2 + (z - offset[1]) ** 2 > (
+        stats["footprint_radius_expected_m"] + 2 * texel
+    ) ** 2
     assert np.all(h[far] == 0.0)
     release(s)
 
@@ -93,7 +95,7 @@ def test_press_beside_a_dent_leaves_it_outside_the_overlap(gl, carver):
 
 def test_patterned_tool_leaves_its_mirrored_pattern(gl, carver):
     # A 10 cm cube whose height map carries stripes of +1 mm along u; its bottom face (chart -Y)
-    # maps u to +x and v to +z, the plate maps v to -z: the print is the tool's pattern mirrored in v.
+    # maps u to +x and v to +z, the plate v to -z: the print is the tool's pattern mirrored in v.
     size = 256
     u = (np.arange(size) + 0.5) / size
     v = (np.arange(size) + 0.5) / size
@@ -291,17 +293,30 @@ def test_no_nan_after_random_and_degenerate_presses(gl, carver):
 def test_carving_reads_nothing_back(gl, carver, monkeypatch):
     s = setup(gl, map_size=256)
     calls = []
-    for cls, name in ((moderngl.Texture, "read"), (moderngl.Texture, "read_into"),
-                      (moderngl.Framebuffer, "read"), (moderngl.Framebuffer, "read_into"),
-                      (moderngl.Buffer, "read"), (moderngl.Buffer, "read_into")):
+    for cls, name in (
+        (moderngl.Texture, "read"),
+        (moderngl.Texture, "read_into"),
+        (moderngl.Framebuffer, "read"),
+        (moderngl.Framebuffer, "read_into"),
+        (moderngl.Buffer, "read"),
+        (moderngl.Buffer, "read_into"),
+    ):
         original = getattr(cls, name)
-        monkeypatch.setattr(cls, name, lambda *a, _o=original, _n=name, **k: calls.append(_n) or _o(*a, **k))
+        monkeypatch.setattr(
+            cls, name, lambda *a, _o=original, _n=name, **k: calls.append(_n) or _o(*a, **k)
+        )
     before = gl.reads
     rng = np.random.default_rng(1)
     for _ in range(100):
         off = rng.uniform(-0.4, 0.4, 2)
         s.tool.model[:3, 3] = [off[0], 0.05, off[1]]
-        carver.carve(s.target, s.tool, ContactFrame(np.array([off[0], 0, off[1]]), np.array([0, -1.0, 0])), 0.003, 0.001)
+        carver.carve(
+            s.target,
+            s.tool,
+            ContactFrame(np.array([off[0], 0, off[1]]), np.array([0, -1.0, 0])),
+            0.003,
+            0.001,
+        )
     assert gl.reads == before and calls == []
     monkeypatch.undo()
     assert heights(gl, s.target).min() < -0.0029

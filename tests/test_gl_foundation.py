@@ -67,11 +67,14 @@ VERT = "#version 330 core\nin vec2 p;\nvoid main() { gl_Position = vec4(p, 0.0, 
 
 
 def test_include_is_spliced_with_line_markers(shader_tree):
-    lib = shader_tree({
-        "a.frag": '#version 330 core\n#include "inc/b.glsl"\nout vec4 c;\nvoid main() { c = f(); }\n',
-        "inc/b.glsl": '#include "c.glsl"\nvec4 f() { return g(); }\n',
-        "inc/c.glsl": "vec4 g() { return vec4(1.0); }\n",
-    })
+    lib = shader_tree(
+        {
+            "a.frag": '#version 330 core\n#include "inc/b.glsl"\nout vec4 c;\n'
+            "void main() { c = f(); }\n",
+            "inc/b.glsl": '#include "c.glsl"\nvec4 f() { return g(); }\n',
+            "inc/c.glsl": "vec4 g() { return vec4(1.0); }\n",
+        }
+    )
     src = lib.expand("a.frag")
     assert src.text.splitlines()[0] == "#version 330 core"
     assert "vec4 g()" in src.text and "vec4 f()" in src.text
@@ -81,12 +84,16 @@ def test_include_is_spliced_with_line_markers(shader_tree):
 
 
 def test_include_cycle_is_reported(shader_tree):
-    lib = shader_tree({
-        "a.frag": '#version 330 core\n#include "b.glsl"\n',
-        "b.glsl": '#include "c.glsl"\n',
-        "c.glsl": '#include "b.glsl"\n',
-    })
-    with pytest.raises(ShaderError, match=r"c.glsl:1: #include cycle: .*b.glsl -> .*c.glsl -> .*b.glsl"):
+    lib = shader_tree(
+        {
+            "a.frag": '#version 330 core\n#include "b.glsl"\n',
+            "b.glsl": '#include "c.glsl"\n',
+            "c.glsl": '#include "b.glsl"\n',
+        }
+    )
+    with pytest.raises(
+        ShaderError, match=r"c.glsl:1: #include cycle: .*b.glsl -> .*c.glsl -> .*b.glsl"
+    ):
         lib.expand("a.frag")
 
 
@@ -100,32 +107,41 @@ def test_include_depth_limit(shader_tree):
 
 
 def test_missing_include_and_missing_version(shader_tree):
-    lib = shader_tree({"a.frag": '#version 330 core\n\n#include "nope.glsl"\n', "b.frag": "void main() {}\n"})
+    lib = shader_tree(
+        {"a.frag": '#version 330 core\n\n#include "nope.glsl"\n', "b.frag": "void main() {}\n"}
+    )
     with pytest.raises(ShaderError, match=r"a.frag:3: shader file 'nope.glsl' not found"):
         lib.expand("a.frag")
-    with pytest.raises(ShaderError, match=r"b.frag:1: a shader must start with '#version 330 core'"):
+    with pytest.raises(
+        ShaderError, match=r"b.frag:1: a shader must start with '#version 330 core'"
+    ):
         lib.expand("b.frag")
 
 
 def test_compile_error_names_included_file_and_line(gl, shader_tree):
-    lib = shader_tree({
-        "v.vert": VERT,
-        "f.frag": '#version 330 core\n#include "helpers.glsl"\nout vec4 c;\nvoid main() { c = h(); }\n',
-        "helpers.glsl": "// helpers\nvec4 h() {\n    return vec4(undefined_thing);\n}\n",
-    })
+    lib = shader_tree(
+        {
+            "v.vert": VERT,
+            "f.frag": '#version 330 core\n#include "helpers.glsl"\nout vec4 c;\n'
+            "void main() { c = h(); }\n",
+            "helpers.glsl": "// helpers\nvec4 h() {\n    return vec4(undefined_thing);\n}\n",
+        }
+    )
     with pytest.raises(ShaderError) as info:
         lib.program(gl.ctx, "v.vert", "f.frag")
     message = str(info.value)
     assert "helpers.glsl:3:" in message
     assert "undefined_thing" in message  # the offending source line is shown
-    gl.ctx.error  # compile failures leave no pending error state we care about
 
 
 def test_compile_error_in_main_file_after_include(gl, shader_tree):
-    lib = shader_tree({
-        "v.vert": VERT,
-        "f.frag": '#version 330 core\n#include "ok.glsl"\nout vec4 c;\nvoid main() { c = vec3(1.0); }\n',
-        "ok.glsl": "float ok() { return 1.0; }\n",
-    })
+    lib = shader_tree(
+        {
+            "v.vert": VERT,
+            "f.frag": '#version 330 core\n#include "ok.glsl"\nout vec4 c;\n'
+            "void main() { c = vec3(1.0); }\n",
+            "ok.glsl": "float ok() { return 1.0; }\n",
+        }
+    )
     with pytest.raises(ShaderError, match=r"f.frag:4:"):
         lib.program(gl.ctx, "v.vert", "f.frag")

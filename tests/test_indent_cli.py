@@ -6,9 +6,9 @@ import sys
 
 import numpy as np
 import pytest
-from carve_helpers import heights, release, setup
 from PIL import Image
 
+from carve_helpers import heights, release, setup
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.surface import export_maps, import_maps
 
@@ -16,10 +16,28 @@ from dentdemo.carve.surface import export_maps, import_maps
 def test_indent_reports_the_cap_error(tmp_path):
     out = tmp_path / "press"
     result = subprocess.run(
-        [sys.executable, "-m", "dentdemo", "indent", "--tool", "sphere", "--tool-size", "0.05",
-         "--target", "plate", "--target-size", "1", "--depth", "0.01", "--map-size", "1024",
-         "--out", str(out)],
-        capture_output=True, text=True,
+        [
+            sys.executable,
+            "-m",
+            "dentdemo",
+            "indent",
+            "--tool",
+            "sphere",
+            "--tool-size",
+            "0.05",
+            "--target",
+            "plate",
+            "--target-size",
+            "1",
+            "--depth",
+            "0.01",
+            "--map-size",
+            "1024",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
     )
     assert result.returncode == 0, result.stderr
     summary = json.loads((out / "summary.json").read_text())
@@ -37,16 +55,22 @@ def test_indent_reports_the_cap_error(tmp_path):
     assert summary["footprint_radius_m"] == pytest.approx(0.03, abs=1.5 / 1024)
 
 
-@pytest.mark.parametrize("args,fragment", [
-    (["--depth", "-1"], "--depth"),
-    (["--depth", "nan"], "--depth"),
-    (["--depth", "0.01", "--tool-size", "0"], "--tool-size"),
-    (["--depth", "0.01", "--map-size", "3"], "--map-size"),
-    (["--depth", "0.01", "--normal", "0", "0", "0"], "--normal"),
-])
+@pytest.mark.parametrize(
+    "args,fragment",
+    [
+        (["--depth", "-1"], "--depth"),
+        (["--depth", "nan"], "--depth"),
+        (["--depth", "0.01", "--tool-size", "0"], "--tool-size"),
+        (["--depth", "0.01", "--map-size", "3"], "--map-size"),
+        (["--depth", "0.01", "--normal", "0", "0", "0"], "--normal"),
+    ],
+)
 def test_indent_bad_arguments(tmp_path, args, fragment):
-    result = subprocess.run([sys.executable, "-m", "dentdemo", "indent", *args, "--out", str(tmp_path)],
-                            capture_output=True, text=True)
+    result = subprocess.run(
+        [sys.executable, "-m", "dentdemo", "indent", *args, "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+    )
     assert result.returncode == 1
     assert fragment in result.stderr and len(result.stderr.strip().splitlines()) == 1
 

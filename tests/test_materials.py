@@ -31,16 +31,20 @@ def test_builtin_presets_cover_the_range():
         assert m.source
         assert m.Y == pytest.approx(threshold(m.restitution, lib.calibration.Y_unit))
         if not m.k_explicit:
-            expected = lib.calibration.k_per_compliance * (1 / m.plastic_modulus - 1 / m.youngs_modulus)
+            expected = lib.calibration.k_per_compliance * (
+                1 / m.plastic_modulus - 1 / m.youngs_modulus
+            )
             assert m.k == pytest.approx(expected)
     # Soft metals dent more per impulse than hard ones; rubber barely at all.
     assert lib.get("lead").k > lib.get("aluminium").k > lib.get("steel").k > lib.get("rubber").k
 
 
 def test_user_file_adds_and_overrides(tmp_toml):
-    path = tmp_toml(GOOD + '\n[materials.steel]\nyoungs_modulus_Pa = 210e9\nyield_stress_Pa = 355e6\n'
-                    'plastic_modulus_Pa = 2e9\ndensity_kg_m3 = 7850\nrestitution = 0.7\nfriction = 0.5\n'
-                    'max_dent_depth_m = 0.005\nk_m_per_Ns = 3e-5\n')
+    path = tmp_toml(
+        GOOD + "\n[materials.steel]\nyoungs_modulus_Pa = 210e9\nyield_stress_Pa = 355e6\n"
+        "plastic_modulus_Pa = 2e9\ndensity_kg_m3 = 7850\nrestitution = 0.7\nfriction = 0.5\n"
+        "max_dent_depth_m = 0.005\nk_m_per_Ns = 3e-5\n"
+    )
     lib = load_materials([path])
     assert lib.get("tin").density == 7300
     steel = lib.get("steel")
@@ -50,15 +54,29 @@ def test_user_file_adds_and_overrides(tmp_toml):
 
 BAD_CASES = [
     ("[materials.x\n", "malformed TOML"),
-    (GOOD.replace("restitution = 0.3", "restitution = 1.0"), "key 'restitution' = 1.0: must be < 1"),
-    (GOOD.replace("restitution = 0.3", "restitution = -0.1"), "key 'restitution' = -0.1: must be >= 0"),
-    (GOOD.replace("density_kg_m3 = 7300", "density_kg_m3 = 0"), "key 'density_kg_m3' = 0: must be > 0"),
-    (GOOD.replace("density_kg_m3 = 7300", "density_kg_m3 = nan"), "key 'density_kg_m3' = nan: must be finite"),
+    (
+        GOOD.replace("restitution = 0.3", "restitution = 1.0"),
+        "key 'restitution' = 1.0: must be < 1",
+    ),
+    (
+        GOOD.replace("restitution = 0.3", "restitution = -0.1"),
+        "key 'restitution' = -0.1: must be >= 0",
+    ),
+    (
+        GOOD.replace("density_kg_m3 = 7300", "density_kg_m3 = 0"),
+        "key 'density_kg_m3' = 0: must be > 0",
+    ),
+    (
+        GOOD.replace("density_kg_m3 = 7300", "density_kg_m3 = nan"),
+        "key 'density_kg_m3' = nan: must be finite",
+    ),
     (GOOD.replace("density_kg_m3 = 7300", "density_kg_m3 = inf"), "must be finite"),
     (GOOD.replace("density_kg_m3 = 7300", 'density_kg_m3 = "heavy"'), "must be a number"),
     (GOOD.replace("density_kg_m3 = 7300", "density_kg_m3 = true"), "must be a number"),
-    (GOOD.replace("plastic_modulus_Pa = 0.5e9", "plastic_modulus_Pa = 60e9"),
-     "key 'plastic_modulus_Pa' = 60000000000.0: must be below youngs_modulus_Pa"),
+    (
+        GOOD.replace("plastic_modulus_Pa = 0.5e9", "plastic_modulus_Pa = 60e9"),
+        "key 'plastic_modulus_Pa' = 60000000000.0: must be below youngs_modulus_Pa",
+    ),
     (GOOD.replace("friction = 0.5", "frcition = 0.5"), "missing key 'friction'"),
     (GOOD + "colour = 1\n", "key 'colour' = 1: unknown key"),
     (GOOD.replace("max_dent_depth_m = 0.02", "max_dent_depth_m = -0.02"), "max_dent_depth_m"),

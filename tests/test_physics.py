@@ -30,11 +30,13 @@ def _material(name: str, **changes):
 
 
 def _drop(eps: float, height: float, dt: float, substeps: int = 4) -> tuple[float, float]:
-    """Drop a ball from `height` (lowest point) onto the ground; return (rebound peak, impact speed)."""
+    """Drop a ball from `height` (its lowest point) on the ground: (rebound peak, impact speed)."""
     mat = _material("steel", restitution=eps)
     world = PhysicsWorld(PhysicsSpec(dt=dt, substeps=substeps))
     world.add_body(BodySpec("ground", ShapeSpec("plane"), mat, static=True))
-    world.add_body(BodySpec("ball", ShapeSpec("sphere", radius=0.05), mat, position=(0, height + 0.05, 0)))
+    world.add_body(
+        BodySpec("ball", ShapeSpec("sphere", radius=0.05), mat, position=(0, height + 0.05, 0))
+    )
     impacts, peak, rising = [], 0.0, False
     for _ in range(int(4.0 / dt)):
         impacts += world.step()
@@ -65,8 +67,16 @@ def test_bounce_height_is_eps_squared(eps, dt, substeps):
 def test_eq2_head_on_two_dynamic_spheres():
     steel, alu = LIB.get("steel"), LIB.get("aluminium")
     world = PhysicsWorld(PhysicsSpec(gravity=(0, 0, 0), dt=1 / 240, substeps=4))
-    world.add_body(BodySpec("a", ShapeSpec("sphere", radius=0.05), steel, position=(0, 1, 0), velocity=(1, 0, 0)))
-    world.add_body(BodySpec("b", ShapeSpec("sphere", radius=0.05), alu, position=(0.3, 1, 0), velocity=(-2, 0, 0)))
+    world.add_body(
+        BodySpec(
+            "a", ShapeSpec("sphere", radius=0.05), steel, position=(0, 1, 0), velocity=(1, 0, 0)
+        )
+    )
+    world.add_body(
+        BodySpec(
+            "b", ShapeSpec("sphere", radius=0.05), alu, position=(0.3, 1, 0), velocity=(-2, 0, 0)
+        )
+    )
     m_a = steel.density * 4 / 3 * math.pi * 0.05**3
     m_b = alu.density * 4 / 3 * math.pi * 0.05**3
     impacts = []
@@ -91,8 +101,20 @@ def test_eq2_sphere_on_static_plate():
     lead = LIB.get("lead")
     steel = LIB.get("steel")
     world = PhysicsWorld(PhysicsSpec(dt=1 / 240, substeps=4))
-    world.add_body(BodySpec("plate", ShapeSpec("plate", side=0.5, thickness=0.02), lead, position=(0, 0.02, 0), static=True))
-    world.add_body(BodySpec("ball", ShapeSpec("sphere", radius=0.04), steel, position=(0, 0.02 + 0.04 + 0.8, 0)))
+    world.add_body(
+        BodySpec(
+            "plate",
+            ShapeSpec("plate", side=0.5, thickness=0.02),
+            lead,
+            position=(0, 0.02, 0),
+            static=True,
+        )
+    )
+    world.add_body(
+        BodySpec(
+            "ball", ShapeSpec("sphere", radius=0.04), steel, position=(0, 0.02 + 0.04 + 0.8, 0)
+        )
+    )
     impacts = []
     for _ in range(120):
         impacts += world.step()
@@ -114,7 +136,9 @@ def test_resting_ball_produces_no_impacts():
     steel = LIB.get("steel")
     world = PhysicsWorld(PhysicsSpec())
     world.add_body(BodySpec("ground", ShapeSpec("plane"), steel, static=True))
-    world.add_body(BodySpec("ball", ShapeSpec("sphere", radius=0.05), steel, position=(0, 0.051, 0)))
+    world.add_body(
+        BodySpec("ball", ShapeSpec("sphere", radius=0.05), steel, position=(0, 0.051, 0))
+    )
     for _ in range(60):
         world.step()
     later = []
@@ -163,7 +187,14 @@ def test_bodies_can_be_added_and_removed_while_running():
     world = PhysicsWorld(PhysicsSpec())
     world.add_body(BodySpec("ground", ShapeSpec("plane"), steel, static=True))
     for i in range(5):
-        world.add_body(BodySpec(f"b{i}", ShapeSpec("capsule", radius=0.03, length=0.1), steel, position=(i * 0.2, 0.5, 0)))
+        world.add_body(
+            BodySpec(
+                f"b{i}",
+                ShapeSpec("capsule", radius=0.03, length=0.1),
+                steel,
+                position=(i * 0.2, 0.5, 0),
+            )
+        )
         world.step()
     world.remove_body("b2")
     for _ in range(120):
@@ -189,22 +220,40 @@ position = [0, 1, 0]
 """
 
 
-@pytest.mark.parametrize("text,expected", [
-    (SCENE_OK.replace("radius = 0.05", "radius = 0"), "[body.ball] key 'radius' = 0: must be > 0"),
-    (SCENE_OK.replace("radius = 0.05", "radius = nan"), "key 'radius' = nan: must be finite"),
-    (SCENE_OK.replace("radius = 0.05", "radius = -1"), "must be > 0"),
-    (SCENE_OK.replace('shape = "sphere"', 'shape = "torus"'), "key 'shape' = 'torus': must be one of"),
-    (SCENE_OK.replace('material = "steel"', 'material = "adamantium"'), "unknown material 'adamantium'"),
-    (SCENE_OK.replace('id = "ball"', 'id = "ground"'), "duplicate id"),
-    (SCENE_OK.replace("position = [0, 1, 0]", "position = [0, inf, 0]"), "key 'position'"),
-    (SCENE_OK.replace("position = [0, 1, 0]", "position = [0, 1]"), "must be a list of 3 numbers"),
-    (SCENE_OK + "colour = 'red'\n", "key 'colour' = 'red': unknown key"),
-    (SCENE_OK + "[physics]\ndt = 0\n", "[physics] key 'dt' = 0: must be >= 1e-05"),
-    (SCENE_OK + "[camera]\nfov_deg = 500\n", "key 'fov_deg' = 500"),
-    ("[bodies]\n", "[bodies]: unknown table"),
-    ("[[body]]\nshape = 'sphere'\n", "missing key 'id'"),
-    (SCENE_OK.replace('shape = "plane"', 'shape = "plane"\nstatic = false'), "a plane is always static"),
-])
+@pytest.mark.parametrize(
+    "text,expected",
+    [
+        (
+            SCENE_OK.replace("radius = 0.05", "radius = 0"),
+            "[body.ball] key 'radius' = 0: must be > 0",
+        ),
+        (SCENE_OK.replace("radius = 0.05", "radius = nan"), "key 'radius' = nan: must be finite"),
+        (SCENE_OK.replace("radius = 0.05", "radius = -1"), "must be > 0"),
+        (
+            SCENE_OK.replace('shape = "sphere"', 'shape = "torus"'),
+            "key 'shape' = 'torus': must be one of",
+        ),
+        (
+            SCENE_OK.replace('material = "steel"', 'material = "adamantium"'),
+            "unknown material 'adamantium'",
+        ),
+        (SCENE_OK.replace('id = "ball"', 'id = "ground"'), "duplicate id"),
+        (SCENE_OK.replace("position = [0, 1, 0]", "position = [0, inf, 0]"), "key 'position'"),
+        (
+            SCENE_OK.replace("position = [0, 1, 0]", "position = [0, 1]"),
+            "must be a list of 3 numbers",
+        ),
+        (SCENE_OK + "colour = 'red'\n", "key 'colour' = 'red': unknown key"),
+        (SCENE_OK + "[physics]\ndt = 0\n", "[physics] key 'dt' = 0: must be >= 1e-05"),
+        (SCENE_OK + "[camera]\nfov_deg = 500\n", "key 'fov_deg' = 500"),
+        ("[bodies]\n", "[bodies]: unknown table"),
+        ("[[body]]\nshape = 'sphere'\n", "missing key 'id'"),
+        (
+            SCENE_OK.replace('shape = "plane"', 'shape = "plane"\nstatic = false'),
+            "a plane is always static",
+        ),
+    ],
+)
 def test_bad_scenes(tmp_toml, text, expected):
     path = tmp_toml(text, "scene.toml")
     with pytest.raises(ConfigError) as info:
@@ -224,8 +273,9 @@ def test_ball_drop_scene_has_what_the_demo_needs():
 
 
 def _simulate(*args):
-    return subprocess.run([sys.executable, "-m", "dentdemo", "simulate", *args],
-                          capture_output=True, text=True)
+    return subprocess.run(
+        [sys.executable, "-m", "dentdemo", "simulate", *args], capture_output=True, text=True
+    )
 
 
 def test_simulate_json_matches_eq2_and_repeats_exactly():
@@ -239,8 +289,9 @@ def test_simulate_json_matches_eq2_and_repeats_exactly():
 
     for hit in lines:
         inv = [0.0 if hit[k] is None else 1.0 / hit[k] for k in ("mass_a", "mass_b")]
-        j, j1 = pair_impulses(hit["normal"], hit["vel_a"], hit["vel_b"], inv[0], inv[1],
-                              hit["eps_a"], hit["eps_b"])
+        j, j1 = pair_impulses(
+            hit["normal"], hit["vel_a"], hit["vel_b"], inv[0], inv[1], hit["eps_a"], hit["eps_b"]
+        )
         assert float(j) == pytest.approx(hit["j"], rel=1e-6)
         assert float(j1) == pytest.approx(hit["j_elastic"], rel=1e-6)
         assert hit["approach_speed"] > 0
@@ -257,7 +308,11 @@ def test_trimesh_body_collides(tmp_path):
     trimesh = pytest.importorskip("trimesh", reason="trimesh is a declared dependency")
     path = tmp_path / "block.obj"
     trimesh.creation.box(extents=(0.2, 0.2, 0.2)).export(path)
-    text = SCENE_OK + f'\n[[body]]\nid = "mesh"\nshape = "mesh"\nmesh = "{path}"\nmaterial = "oak"\nposition = [1, 0.5, 0]\n'
+    text = (
+        SCENE_OK
+        + f'\n[[body]]\nid = "mesh"\nshape = "mesh"\nmesh = "{path}"\n'
+        + 'material = "oak"\nposition = [1, 0.5, 0]\n'
+    )
     scene_path = tmp_path / "scene.toml"
     scene_path.write_text(text)
     from dentdemo.physics.simulate import build_world
@@ -268,4 +323,31 @@ def test_trimesh_body_collides(tmp_path):
     impacts = [i for _ in range(120) for i in world.step() if "mesh" in (i.body_a, i.body_b)]
     assert impacts and impacts[0].j > 0
     assert world.pose("mesh")[0][1] == pytest.approx(0.1, abs=0.01)  # resting on the ground
+    world.close()
+
+
+def test_small_stack_stays_stacked_and_quiet():
+    oak = LIB.get("oak")
+    world = PhysicsWorld(PhysicsSpec())
+    world.add_body(BodySpec("ground", ShapeSpec("plane"), oak, static=True))
+    for i in range(4):
+        world.add_body(
+            BodySpec(
+                f"box{i}",
+                ShapeSpec("box", size=(0.2, 0.2, 0.2)),
+                oak,
+                position=(0.01 * i, 0.1 + 0.2 * i + 0.001, 0),
+            )
+        )
+    late = []
+    for step in range(600):  # 10 s
+        impacts = world.step()
+        if step > 60:
+            late += impacts
+    assert late == []
+    for i in range(4):
+        position = world.pose(f"box{i}")[0]
+        assert position[1] == pytest.approx(0.1 + 0.2 * i, abs=2e-3)
+        assert abs(position[0] - 0.01 * i) < 5e-3
+        assert np.linalg.norm(world.velocity(f"box{i}")[0]) < 1e-2
     world.close()

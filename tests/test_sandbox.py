@@ -63,7 +63,9 @@ def test_dents_change_the_image_only_near_impacts(renders, gl):
     camera = OrbitCamera.from_eye(scene.camera.eye, scene.camera.target, scene.camera.fov_deg)
     pixels = camera.project(points, SIZE[0] / SIZE[1], SIZE)
     ys, xs = np.nonzero(changed)
-    dist = np.min(np.hypot(xs[:, None] - pixels[None, :, 0], ys[:, None] - pixels[None, :, 1]), axis=1)
+    dist = np.min(
+        np.hypot(xs[:, None] - pixels[None, :, 0], ys[:, None] - pixels[None, :, 1]), axis=1
+    )
     # Every changed pixel lies within 30 px (a dent plus the ball sitting in it) of an impact.
     assert np.percentile(dist, 99) < 30 and dist.max() < 45
     sim.close()
@@ -72,25 +74,48 @@ def test_dents_change_the_image_only_near_impacts(renders, gl):
 def test_render_writes_every_frame_and_maps(tmp_path):
     out = tmp_path / "frame_%04d.png"
     result = subprocess.run(
-        [sys.executable, "-m", "dentdemo", "render", "--frames", "3", "--out", str(out), "--size", "64x48",
-         "--maps-dir", str(tmp_path / "maps")],
-        capture_output=True, text=True,
+        [
+            sys.executable,
+            "-m",
+            "dentdemo",
+            "render",
+            "--frames",
+            "3",
+            "--out",
+            str(out),
+            "--size",
+            "64x48",
+            "--maps-dir",
+            str(tmp_path / "maps"),
+        ],
+        capture_output=True,
+        text=True,
     )
     assert result.returncode == 0, result.stderr
-    assert sorted(p.name for p in tmp_path.glob("frame_*.png")) == ["frame_0000.png", "frame_0001.png", "frame_0002.png"]
+    assert sorted(p.name for p in tmp_path.glob("frame_*.png")) == [
+        "frame_0000.png",
+        "frame_0001.png",
+        "frame_0002.png",
+    ]
     height = np.load(tmp_path / "maps" / "steel_plate_height.npy")
     assert height.dtype == np.float32 and height.shape == (512, 512)
     assert (tmp_path / "maps" / "steel_plate_normal.png").is_file()
 
 
-@pytest.mark.parametrize("args,fragment", [
-    (["--size", "big"], "--size"),
-    (["--frames", "0"], "--frames"),
-    (["--scene", "/nonexistent.toml"], "/nonexistent.toml"),
-])
+@pytest.mark.parametrize(
+    "args,fragment",
+    [
+        (["--size", "big"], "--size"),
+        (["--frames", "0"], "--frames"),
+        (["--scene", "/nonexistent.toml"], "/nonexistent.toml"),
+    ],
+)
 def test_render_bad_arguments(tmp_path, args, fragment):
-    result = subprocess.run([sys.executable, "-m", "dentdemo", "render", "--out", str(tmp_path / "x.png"), *args],
-                            capture_output=True, text=True)
+    result = subprocess.run(
+        [sys.executable, "-m", "dentdemo", "render", "--out", str(tmp_path / "x.png"), *args],
+        capture_output=True,
+        text=True,
+    )
     assert result.returncode == 1 and fragment in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "x.png").exists()
@@ -118,7 +143,10 @@ def test_panel_actions_through_the_controller(gl, tmp_path):
     # Plate of the panel's material under the orbit target.
     app.panel.plate_material = "copper"
     plate = app.add_plate()
-    assert app.sim.bodies[plate].spec.material.name == "copper" and app.sim.bodies[plate].maps is not None
+    assert (
+        app.sim.bodies[plate].spec.material.name == "copper"
+        and app.sim.bodies[plate].maps is not None
+    )
     # Pause, single step, time scale.
     app.toggle_pause()
     t = app.sim.world.time
@@ -166,9 +194,12 @@ def test_impact_queue_never_drops_a_hit(gl):
 def _xvfb_display():
     if shutil.which("Xvfb") is None:
         return None
-    display = ":%d" % (90 + os.getpid() % 500)
-    proc = subprocess.Popen(["Xvfb", display, "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    display = f":{90 + os.getpid() % 500}"
+    proc = subprocess.Popen(
+        ["Xvfb", display, "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     time.sleep(1.0)
     if proc.poll() is not None:
         return None
@@ -190,9 +221,22 @@ def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):
     shot = tmp_path / "shot.png"
     env = {**os.environ, "DISPLAY": xvfb}
     result = subprocess.run(
-        [sys.executable, "-m", "dentdemo", "demo", "--scene", str(BALL_DROP), "--screenshot", str(shot),
-         "--exit-after", "1"],
-        capture_output=True, text=True, env=env, timeout=300,
+        [
+            sys.executable,
+            "-m",
+            "dentdemo",
+            "demo",
+            "--scene",
+            str(BALL_DROP),
+            "--screenshot",
+            str(shot),
+            "--exit-after",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
     )
     assert result.returncode == 0, result.stderr
     image = _png(shot)
@@ -205,8 +249,20 @@ def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):
 def test_demo_without_display_renders_headless(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     result = subprocess.run(
-        [sys.executable, "-m", "dentdemo", "demo", "--screenshot", str(tmp_path / "d.png"), "--exit-after", "0.2"],
-        capture_output=True, text=True, env=env, cwd=tmp_path,
+        [
+            sys.executable,
+            "-m",
+            "dentdemo",
+            "demo",
+            "--screenshot",
+            str(tmp_path / "d.png"),
+            "--exit-after",
+            "0.2",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=tmp_path,
     )
     assert result.returncode == 0, result.stderr
     assert "no display" in result.stderr and "headless" in result.stderr

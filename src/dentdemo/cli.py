@@ -37,7 +37,8 @@ def _cmd_materials(args: argparse.Namespace) -> int:
         tag = "*" if m.k_explicit else " "
         print(
             f"{name:<11} {m.youngs_modulus / 1e9:8.3g} {m.plastic_modulus / 1e9:8.3g} "
-            f"{m.density:6.0f} {m.restitution:5.2f} {m.friction:4.2f} {m.max_dent_depth * 1e3:8.1f} "
+            f"{m.density:6.0f} {m.restitution:5.2f} {m.friction:4.2f} "
+            f"{m.max_dent_depth * 1e3:8.1f} "
             f"{m.k:10.3g}{tag}{m.Y:7.3g}"
         )
     print("(* k set by the preset; otherwise k = k_per_compliance * (1/P - 1/E))")
@@ -66,8 +67,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     p = sub.add_parser("materials", help="list the effective material presets with k and Y")
-    p.add_argument("--materials", action="append", default=[], metavar="FILE",
-                   help="a TOML file that adds or overrides presets (repeatable)")
+    p.add_argument(
+        "--materials",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a TOML file that adds or overrides presets (repeatable)",
+    )
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(handler=_cmd_materials)
 

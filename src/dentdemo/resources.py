@@ -1,4 +1,4 @@
-"""Where the shipped shaders and assets live, for an editable checkout and for an installed wheel."""
+"""Where the shipped shaders and assets live: in a source checkout or in an installed wheel."""
 
 from __future__ import annotations
 

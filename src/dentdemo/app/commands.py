@@ -9,4 +9,10 @@ from dentdemo.app import demo, headless, indent
 from dentdemo.bench import run as bench
 from dentdemo.physics import simulate
 
-REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [indent.register, simulate.register, headless.register, demo.register, bench.register]
+REGISTRARS: list[Callable[[argparse._SubParsersAction], None]] = [
+    indent.register,
+    simulate.register,
+    headless.register,
+    demo.register,
+    bench.register,
+]

@@ -31,12 +31,16 @@ class PanelState:
 
 
 class DemoController:
-    def __init__(self, gl: GLContext, scene: Scene, materials: MaterialLibrary, size: tuple[int, int]) -> None:
+    def __init__(
+        self, gl: GLContext, scene: Scene, materials: MaterialLibrary, size: tuple[int, int]
+    ) -> None:
         self.gl = gl
         self.materials = materials
         self.sim = Simulation(gl, scene, materials)
         self.renderer = Renderer(gl, size)
-        self.camera = OrbitCamera.from_eye(scene.camera.eye, scene.camera.target, scene.camera.fov_deg)
+        self.camera = OrbitCamera.from_eye(
+            scene.camera.eye, scene.camera.target, scene.camera.fov_deg
+        )
         self.options = RenderOptions()
         self.panel = PanelState()
         self.paused = False
@@ -75,7 +79,9 @@ class DemoController:
         if point is None:
             return None
         p = self.panel
-        return self.sim.drop_ball(point + [0.0, DROP_HEIGHT, 0.0], (0, 0, 0), p.ball_material, p.ball_radius)
+        return self.sim.drop_ball(
+            point + [0.0, DROP_HEIGHT, 0.0], (0, 0, 0), p.ball_material, p.ball_radius
+        )
 
     def throw_ball(self, ndc_x: float, ndc_y: float, strength: float = 1.0) -> str:
         """Right drag: a ball from the camera along the view ray at the panel's speed."""
@@ -136,8 +142,11 @@ class DemoController:
 
     def stats_line(self, fps: float) -> str:
         s = self.sim.stats
-        return (f"{fps:5.1f} fps | physics {s.physics_ms:5.2f} ms | carve {s.carve_ms_per_hit:5.2f} ms/hit | "
-                f"hits {s.hits} | queued {len(self.sim.queue)} | bodies {len(self.sim.bodies)}")
+        return (
+            f"{fps:5.1f} fps | physics {s.physics_ms:5.2f} ms | "
+            f"carve {s.carve_ms_per_hit:5.2f} ms/hit | "
+            f"hits {s.hits} | queued {len(self.sim.queue)} | bodies {len(self.sim.bodies)}"
+        )
 
     def screenshot(self, path: Path) -> Path:
         from dentdemo.app.headless import save_png

@@ -38,17 +38,27 @@ def _headless_instead(args: argparse.Namespace, path: Path, why: str) -> int:
     seconds = args.exit_after if args.exit_after is not None else 3.0
     materials = load_materials(args.materials)
     frames = max(1, round(seconds / load_scene(path, materials).physics.dt))
-    print(f"dentdemo: {why}; rendering the same scene headless instead ({frames} frames) to {out}",
-          file=sys.stderr)
+    print(
+        f"dentdemo: {why}; rendering the same scene headless instead ({frames} frames) to {out}",
+        file=sys.stderr,
+    )
     render_headless(path, args.materials, frames, out, (1280, 720))
     print(f"wrote {out}")
     return 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="the interactive ball-drop sandbox (headless PNG without a display)")
+    p = sub.add_parser(
+        "demo", help="the interactive ball-drop sandbox (headless PNG without a display)"
+    )
     add_scene_arguments(p)
-    p.add_argument("--screenshot", metavar="PNG", help="save the window's image (with --exit-after)")
-    p.add_argument("--exit-after", type=float, metavar="SECONDS",
-                   help="simulated seconds after which to save the screenshot and exit")
+    p.add_argument(
+        "--screenshot", metavar="PNG", help="save the window's image (with --exit-after)"
+    )
+    p.add_argument(
+        "--exit-after",
+        type=float,
+        metavar="SECONDS",
+        help="simulated seconds after which to save the screenshot and exit",
+    )
     p.set_defaults(handler=run_demo)

@@ -109,19 +109,33 @@ def run_render(args: argparse.Namespace) -> int:
 def add_scene_arguments(p: argparse.ArgumentParser) -> None:
     """--scene and --materials, as every command that loads a scene takes them."""
     p.add_argument("--scene", metavar="FILE", help="scene TOML (default: the ball-drop scene)")
-    p.add_argument("--materials", action="append", default=[], metavar="FILE",
-                   help="a TOML file that adds or overrides material presets (repeatable)")
+    p.add_argument(
+        "--materials",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a TOML file that adds or overrides material presets (repeatable)",
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("render", help="simulate a scene headless (EGL) and write PNG frames")
     add_scene_arguments(p)
     p.add_argument("--frames", type=int, default=120, help="simulation frames at the scene's dt")
-    p.add_argument("--out", required=True, metavar="PNG", help="output image; %%04d writes every frame")
+    p.add_argument(
+        "--out", required=True, metavar="PNG", help="output image; %%04d writes every frame"
+    )
     p.add_argument("--size", default="1280x720", metavar="WxH")
-    p.add_argument("--maps-dir", metavar="DIR", help="also write every body's height and normal maps")
+    p.add_argument(
+        "--maps-dir", metavar="DIR", help="also write every body's height and normal maps"
+    )
     p.add_argument("--no-dents", action="store_true", help="detect impacts but carve nothing")
     p.add_argument("--parallax", action="store_true", help="parallax occlusion mapping")
-    p.add_argument("--view", type=int, choices=(0, 1, 2), default=0,
-                   help="0 shaded, 1 height map, 2 normal map")
+    p.add_argument(
+        "--view",
+        type=int,
+        choices=(0, 1, 2),
+        default=0,
+        help="0 shaded, 1 height map, 2 normal map",
+    )
     p.set_defaults(handler=run_render)

@@ -14,7 +14,7 @@ from PIL import Image
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
 from dentdemo.carve.shapes import Shape
-from dentdemo.carve.surface import GpuMesh, create_maps, export_maps
+from dentdemo.carve.surface import GpuMesh, create_maps, load_height_png
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext, create_headless
 from dentdemo.mesh.mesh import Mesh
@@ -47,8 +47,10 @@ def shape_from_args(kind: str, size: list[float], role: str) -> Shape:
         raise DentdemoError(f"--{role}-size: {exc}") from None
 
 
-def _aim_point(shape: Shape, mesh: Mesh, offset: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """The surface point straight above (x, z) = offset on the target's upper side, and its normal."""
+def _aim_point(
+    shape: Shape, mesh: Mesh, offset: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The point above (x, z) = offset on the target's upper side, and its normal there."""
     x, z = offset
     if shape.kind == "sphere":
         r = shape.dims[0]
@@ -80,13 +82,17 @@ def make_setup(
     tool_model = np.eye(4)
     tool_model[:3, 3] = point - tool_shape.support(-normal)
     tool_gpu = GpuMesh(gl, tool_mesh)
-    tool = CarveBody(tool_gpu, create_maps(gl, tool_gpu, tool_map_size, max_dent_depth, tool_height), tool_model)
+    tool = CarveBody(
+        tool_gpu, create_maps(gl, tool_gpu, tool_map_size, max_dent_depth, tool_height), tool_model
+    )
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
     return PressSetup(target, tool, target_shape, tool_shape, ContactFrame(point, d), normal)
 
 
-def cap_error(height: np.ndarray, side: float, centre_xz: tuple[float, float], radius: float, depth: float) -> dict:
+def cap_error(
+    height: np.ndarray, side: float, centre_xz: tuple[float, float], radius: float, depth: float
+) -> dict:
     """The spherical-cap oracle on a plate: RMS error relative to depth, footprint and volume."""
     rows, cols = height.shape
     u = (np.arange(cols) + 0.5) / cols
@@ -117,18 +123,6 @@ def footprint_radius(height: np.ndarray, texel_area: float, threshold: float = 1
     return float(np.sqrt((height < -threshold).sum() * texel_area / np.pi))
 
 
-def load_pattern(path: Path, size: int, amplitude: float) -> np.ndarray:
-    """A greyscale PNG as heights: white = +amplitude metres, black = 0; resized to the map."""
-    try:
-        with Image.open(path) as img:
-            grey = img.convert("F").resize((size, size), Image.Resampling.BILINEAR)
-    except OSError as exc:
-        raise DentdemoError(f"{path}: cannot read the pattern image ({exc})") from None
-    # Image rows run top-down; texture row 0 is v = 0, the image's bottom row.
-    data = np.asarray(grey, dtype=np.float32)[::-1] / 255.0
-    return np.ascontiguousarray(data * amplitude, dtype=np.float32)
-
-
 def run_indent(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if args.depth < 0 or not np.isfinite(args.depth):
@@ -145,11 +139,24 @@ def run_indent(args: argparse.Namespace) -> int:
     target_shape = shape_from_args(args.target, args.target_size, "target")
     tool_shape = shape_from_args(args.tool, args.tool_size, "tool")
     tool_map = args.tool_map_size or args.map_size
-    pattern = load_pattern(Path(args.tool_pattern), tool_map, args.pattern_height) if args.tool_pattern else None
+    pattern = (
+        load_height_png(Path(args.tool_pattern), tool_map, args.pattern_height)
+        if args.tool_pattern
+        else None
+    )
     gl = create_headless()
     try:
-        setup = make_setup(gl, target_shape, tool_shape, args.map_size, tool_map, tuple(args.offset),
-                           direction, args.max_dent_depth, pattern)
+        setup = make_setup(
+            gl,
+            target_shape,
+            tool_shape,
+            args.map_size,
+            tool_map,
+            tuple(args.offset),
+            direction,
+            args.max_dent_depth,
+            pattern,
+        )
         carver = Carver(gl)
         times = []
         for _ in range(args.repeat):
@@ -191,9 +198,19 @@ def _write_outputs(gl: GLContext, setup: PressSetup, out: Path, args, times: lis
         "renderer": gl.renderer,
     }
     straight = np.allclose(setup.contact.direction, DOWN)
-    if setup.target_shape.kind == "plate" and setup.tool_shape.kind == "sphere" and straight and args.depth > 0:
-        summary["cap"] = cap_error(target_h, setup.target_shape.dims[0], tuple(args.offset),
-                                   setup.tool_shape.dims[0], args.depth)
+    if (
+        setup.target_shape.kind == "plate"
+        and setup.tool_shape.kind == "sphere"
+        and straight
+        and args.depth > 0
+    ):
+        summary["cap"] = cap_error(
+            target_h,
+            setup.target_shape.dims[0],
+            tuple(args.offset),
+            setup.tool_shape.dims[0],
+            args.depth,
+        )
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary
 
@@ -204,7 +221,7 @@ def save_normal_png(normal: np.ndarray, path: Path) -> None:
 
 
 def save_height_png(height: np.ndarray, max_depth: float, path: Path) -> None:
-    """Heights as a 16-bit greyscale PNG: 65535 = pristine (0 m), 0 = -max_depth; top row = v = 1."""
+    """Heights as 16-bit greyscale: 65535 = pristine (0 m), 0 = -max_depth; top row is v = 1."""
     scaled = np.clip(1.0 + height / max_depth, 0.0, 1.0) * 65535.0
     Image.fromarray(np.ascontiguousarray(np.round(scaled[::-1]).astype(np.uint16))).save(path)
 
@@ -212,22 +229,50 @@ def save_height_png(height: np.ndarray, max_depth: float, path: Path) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("indent", help="press a tool into a target on the GPU, no physics")
     p.add_argument("--tool", choices=("sphere", "box", "capsule"), default="sphere")
-    p.add_argument("--tool-size", type=float, nargs="+", default=[0.05], metavar="M",
-                   help="sphere radius; box edge (or x y z); capsule radius [length], metres")
+    p.add_argument(
+        "--tool-size",
+        type=float,
+        nargs="+",
+        default=[0.05],
+        metavar="M",
+        help="sphere radius; box edge (or x y z); capsule radius [length], metres",
+    )
     p.add_argument("--target", choices=("plate", "box", "sphere"), default="plate")
-    p.add_argument("--target-size", type=float, nargs="+", default=[1.0], metavar="M",
-                   help="plate side; box edge (or x y z); sphere radius, metres")
+    p.add_argument(
+        "--target-size",
+        type=float,
+        nargs="+",
+        default=[1.0],
+        metavar="M",
+        help="plate side; box edge (or x y z); sphere radius, metres",
+    )
     p.add_argument("--depth", type=float, required=True, help="dent the target receives, m")
-    p.add_argument("--offset", type=float, nargs=2, default=[0.0, 0.0], metavar=("X", "Z"),
-                   help="where on the target, metres from its centre")
-    p.add_argument("--normal", type=float, nargs=3, default=[0.0, -1.0, 0.0], metavar=("X", "Y", "Z"),
-                   help="press direction (the way the tool moves)")
+    p.add_argument(
+        "--offset",
+        type=float,
+        nargs=2,
+        default=[0.0, 0.0],
+        metavar=("X", "Z"),
+        help="where on the target, metres from its centre",
+    )
+    p.add_argument(
+        "--normal",
+        type=float,
+        nargs=3,
+        default=[0.0, -1.0, 0.0],
+        metavar=("X", "Y", "Z"),
+        help="press direction (the way the tool moves)",
+    )
     p.add_argument("--repeat", type=int, default=1, help="press this many times")
     p.add_argument("--map-size", type=int, default=512, help="target map side, texels")
-    p.add_argument("--tool-map-size", type=int, default=0, help="tool map side (default: --map-size)")
+    p.add_argument(
+        "--tool-map-size", type=int, default=0, help="tool map side (default: --map-size)"
+    )
     p.add_argument("--tool-pattern", metavar="PNG", help="greyscale height pattern on the tool")
     p.add_argument("--pattern-height", type=float, default=0.002, help="white in the pattern, m")
     p.add_argument("--tool-depth", type=float, default=0.0, help="dent the tool receives, m")
-    p.add_argument("--max-dent-depth", type=float, default=0.1, help="deepest height a map holds, m")
+    p.add_argument(
+        "--max-dent-depth", type=float, default=0.1, help="deepest height a map holds, m"
+    )
     p.add_argument("--out", required=True, metavar="DIR")
     p.set_defaults(handler=run_indent)

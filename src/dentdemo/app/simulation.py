@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
-from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, map_size_for
+from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
 from dentdemo.gl.context import GLContext
 from dentdemo.mesh import primitives
 from dentdemo.mesh.mesh import Mesh
@@ -128,7 +128,12 @@ class Simulation:
         maps = None
         if spec.dentable:
             size = map_size_for(mesh, spec.texels_per_metre)
-            maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth)
+            start = (
+                load_height_png(Path(spec.bump_map), size, spec.bump_height)
+                if spec.bump_map
+                else None
+            )
+            maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth, start)
         else:
             maps = create_maps(self.gl, gpu, 16, spec.material.max_dent_depth)  # a flat stand-in
         body = SimBody(spec, mesh, gpu, maps)
@@ -166,7 +171,9 @@ class Simulation:
     def remove_body(self, body_id: str) -> None:
         self.world.remove_body(body_id)
         _release_body(self.bodies.pop(body_id))
-        self.queue = deque(r for r in self.queue if body_id not in (r.impact.body_a, r.impact.body_b))
+        self.queue = deque(
+            r for r in self.queue if body_id not in (r.impact.body_a, r.impact.body_b)
+        )
 
     def model(self, body_id: str) -> NDArray[np.float64]:
         return self.world.model_matrix(body_id) if body_id in self.world.bodies else np.eye(4)
@@ -219,8 +226,16 @@ class Simulation:
         if a is None or b is None:
             return None
         ma, mb = a.spec.material, b.spec.material
-        depth_a = float(dent_depth(impact.j_elastic, ma.k, ma.Y, ma.max_dent_depth)) if a.spec.dentable else 0.0
-        depth_b = float(dent_depth(impact.j_elastic, mb.k, mb.Y, mb.max_dent_depth)) if b.spec.dentable else 0.0
+        depth_a = (
+            float(dent_depth(impact.j_elastic, ma.k, ma.Y, ma.max_dent_depth))
+            if a.spec.dentable
+            else 0.0
+        )
+        depth_b = (
+            float(dent_depth(impact.j_elastic, mb.k, mb.Y, mb.max_dent_depth))
+            if b.spec.dentable
+            else 0.0
+        )
         if depth_a <= 0.0 and depth_b <= 0.0:
             return None  # no GPU work for an impact below both thresholds
         model_a = pose_matrix(*impact.pose_a)
@@ -258,7 +273,7 @@ class Simulation:
             self._add_render_body(spec)
 
     def export_maps(self, directory: Path) -> list[Path]:
-        """Every dentable body's height (.npy, float32 [v, u]) and normal map (.png); export only."""
+        """Write each dentable body's height (.npy, float32 [v, u]) and normals (.png)."""
         from dentdemo.app.indent import save_normal_png
 
         directory.mkdir(parents=True, exist_ok=True)

@@ -20,10 +20,11 @@ CLICK_PIXELS = 4  # a press that moves less than this is a click, not a drag
 
 
 class DemoWindow:
-    def __init__(self, scene: Scene, materials: MaterialLibrary, size: tuple[int, int] = (1280, 720)) -> None:
-        from imgui_bundle import imgui  # before glfw: pyGLFW must use imgui-bundle's libglfw
-
+    def __init__(
+        self, scene: Scene, materials: MaterialLibrary, size: tuple[int, int] = (1280, 720)
+    ) -> None:
         import glfw
+        from imgui_bundle import imgui  # before glfw: pyGLFW must use imgui-bundle's libglfw
 
         self.glfw = glfw
         self.imgui = imgui
@@ -63,7 +64,11 @@ class DemoWindow:
         if start is None:
             return
         moved = abs(x - start[0]) + abs(y - start[1])
-        if button == glfw.MOUSE_BUTTON_LEFT and moved < CLICK_PIXELS and not start[2] & glfw.MOD_SHIFT:
+        if (
+            button == glfw.MOUSE_BUTTON_LEFT
+            and moved < CLICK_PIXELS
+            and not start[2] & glfw.MOD_SHIFT
+        ):
             self.app.drop_ball(*self._ndc(x, y))
         elif button == glfw.MOUSE_BUTTON_RIGHT:
             h = glfw.get_window_size(window)[1]
@@ -136,7 +141,9 @@ class DemoWindow:
         if imgui.button("step"):
             app.single_step()
         imgui.separator()
-        _, app.options.view = imgui.combo("view", app.options.view, ["shaded", "height map", "normal map"])
+        _, app.options.view = imgui.combo(
+            "view", app.options.view, ["shaded", "height map", "normal map"]
+        )
         for name in ("parallax", "wireframe", "contacts", "address_map", "shadows"):
             changed, _ = imgui.checkbox(name.replace("_", " "), getattr(app.options, name))
             if changed:

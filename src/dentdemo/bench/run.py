@@ -25,16 +25,31 @@ from dentdemo.gl.context import GLContext, create_headless
 PRESS = {"tool_radius_m": 0.05, "plate_side_m": 1.0, "depth_m": 0.01, "tool_depth_m": 0.002}
 MODES = {
     "tiny": {"sizes": [128, 256], "reps": 2, "bodies": [8], "frames": 4, "cpu_sizes": [128, 256]},
-    "quick": {"sizes": [256, 1024, 4096], "reps": 5, "bodies": [20, 100], "frames": 20,
-              "cpu_sizes": [256, 1024, 4096]},
-    "full": {"sizes": [256, 512, 1024, 2048, 4096], "reps": 15, "bodies": [20, 100, 500], "frames": 60,
-             "cpu_sizes": [256, 512, 1024, 2048, 4096]},
+    "quick": {
+        "sizes": [256, 1024, 4096],
+        "reps": 5,
+        "bodies": [20, 100],
+        "frames": 20,
+        "cpu_sizes": [256, 1024, 4096],
+    },
+    "full": {
+        "sizes": [256, 512, 1024, 2048, 4096],
+        "reps": 15,
+        "bodies": [20, 100, 500],
+        "frames": 60,
+        "cpu_sizes": [256, 512, 1024, 2048, 4096],
+    },
 }
 
 
 def _press_setup(gl: GLContext, size: int):
-    return make_setup(gl, shape_from_args("plate", [PRESS["plate_side_m"]], "target"),
-                      shape_from_args("sphere", [PRESS["tool_radius_m"]], "tool"), size, 256)
+    return make_setup(
+        gl,
+        shape_from_args("plate", [PRESS["plate_side_m"]], "target"),
+        shape_from_args("sphere", [PRESS["tool_radius_m"]], "tool"),
+        size,
+        256,
+    )
 
 
 def _release(setup) -> None:
@@ -43,7 +58,9 @@ def _release(setup) -> None:
         body.gpu_mesh.release()
 
 
-def per_hit(gl: GLContext, sizes: list[int], cpu_sizes: list[int], reps: int) -> tuple[list, list, dict]:
+def per_hit(
+    gl: GLContext, sizes: list[int], cpu_sizes: list[int], reps: int
+) -> tuple[list, list, dict]:
     """Median ms per press (both bodies) for both paths, and the per-pass split."""
     carver = Carver(gl)
     rows, passes = [], []
@@ -51,8 +68,14 @@ def per_hit(gl: GLContext, sizes: list[int], cpu_sizes: list[int], reps: int) ->
     finish = gl.ctx.finish
     for size in sizes:
         gpu_setup = _press_setup(gl, size)
-        press = (gpu_setup.target, gpu_setup.tool, gpu_setup.contact, PRESS["depth_m"], PRESS["tool_depth_m"])
-        gpu_ms, _ = median_ms(lambda: carver.carve(*press), finish, reps)
+        press = (
+            gpu_setup.target,
+            gpu_setup.tool,
+            gpu_setup.contact,
+            PRESS["depth_m"],
+            PRESS["tool_depth_m"],
+        )
+        gpu_ms, _ = median_ms(lambda press=press: carver.carve(*press), finish, reps)
         timer = PassTimer(gl.ctx)
         carver.pass_timer = timer
         for _ in range(reps):
@@ -62,18 +85,30 @@ def per_hit(gl: GLContext, sizes: list[int], cpu_sizes: list[int], reps: int) ->
         for name, ms in timer.medians().items():
             passes.append({"map_size": size, "pass": name, "ms": ms, "gpu_timer": timer.gpu})
         job = carver.last_jobs[0]
-        row = {"map_size": size, "gpu_ms": gpu_ms, "reps": reps,
-               "camera_pixels": job.camera.resolution[0] * job.camera.resolution[1]}
+        row = {
+            "map_size": size,
+            "gpu_ms": gpu_ms,
+            "reps": reps,
+            "camera_pixels": job.camera.resolution[0] * job.camera.resolution[1],
+        }
         if size in cpu_sizes:
             cpu_setup = _press_setup(gl, size)
             reference = CpuReference(gl, carver)
             for body in (cpu_setup.target, cpu_setup.tool):
                 reference.mirror(body)  # the CPU path's own copy, made once, outside the timing
-            cpu_press = (cpu_setup.target, cpu_setup.tool, cpu_setup.contact, PRESS["depth_m"], PRESS["tool_depth_m"])
-            cpu_ms, _ = median_ms(lambda: reference.carve(*cpu_press), finish, reps)
+            cpu_press = (
+                cpu_setup.target,
+                cpu_setup.tool,
+                cpu_setup.contact,
+                PRESS["depth_m"],
+                PRESS["tool_depth_m"],
+            )
+            cpu_ms, _ = median_ms(lambda ref=reference, p=cpu_press: ref.carve(*p), finish, reps)
             row["cpu_ms"] = cpu_ms
             row["cpu_over_gpu"] = cpu_ms / gpu_ms if gpu_ms > 0 else None
-            diff = np.abs(gl.read(gpu_setup.target.maps.height) - gl.read(cpu_setup.target.maps.height)).max()
+            diff = np.abs(
+                gl.read(gpu_setup.target.maps.height) - gl.read(cpu_setup.target.maps.height)
+            ).max()
             agreement["max_abs_diff_m"] = max(agreement["max_abs_diff_m"], float(diff))
             _release(cpu_setup)
         rows.append(row)
@@ -98,8 +133,12 @@ def frame_times(gl: GLContext, body_counts: list[int], frames: int, size=(1280, 
         names = ["steel", "brass", "copper", "lead", "clay", "rubber", "aluminium"]
         for i in range(max(0, count - len(app.sim.bodies))):
             pos = (rng.uniform(-0.5, 0.5), rng.uniform(0.15, 1.5), rng.uniform(-0.5, 0.5))
-            app.sim.drop_ball(pos, material=names[i % len(names)], radius=float(rng.uniform(0.015, 0.04)),
-                              texels_per_metre=512)
+            app.sim.drop_ball(
+                pos,
+                material=names[i % len(names)],
+                radius=float(rng.uniform(0.015, 0.04)),
+                texels_per_metre=512,
+            )
         physics, carve, render, total = [], [], [], []
         for _ in range(frames):
             gl.ctx.finish()
@@ -115,10 +154,18 @@ def frame_times(gl: GLContext, body_counts: list[int], frames: int, size=(1280, 
             carve.append((carved - mid) * 1e3 + app.sim.stats.carve_ms)
             render.append((end - carved) * 1e3)
             total.append((end - start) * 1e3)
-        out.append({"bodies": len(app.sim.bodies), "frames": frames, "size": list(size),
-                    "frame_ms": statistics.median(total), "physics_ms": statistics.median(physics),
-                    "carve_ms": statistics.median(carve), "render_ms": statistics.median(render),
-                    "hits": app.sim.stats.hits})
+        out.append(
+            {
+                "bodies": len(app.sim.bodies),
+                "frames": frames,
+                "size": list(size),
+                "frame_ms": statistics.median(total),
+                "physics_ms": statistics.median(physics),
+                "carve_ms": statistics.median(carve),
+                "render_ms": statistics.median(render),
+                "hits": app.sim.stats.hits,
+            }
+        )
         app.close()
     return out
 
@@ -127,10 +174,12 @@ def memory(gl: GLContext) -> dict:
     from dentdemo.carve.surface import SurfaceMaps
 
     per_texel = SurfaceMaps.bytes_per_texel(None)  # type: ignore[arg-type]
-    return {"bytes_per_texel": per_texel,
-            "layout": "R32F height (4) + RGBA8 normal (4) + R8 chart mask (1)",
-            "map_bytes": {str(s): s * s * per_texel for s in (256, 512, 1024, 2048, 4096)},
-            "scratch_bytes": 2 * 1023 * 1023 * (16 + 4 + 4 + 4)}
+    return {
+        "bytes_per_texel": per_texel,
+        "layout": "R32F height (4) + RGBA8 normal (4) + R8 chart mask (1)",
+        "map_bytes": {str(s): s * s * per_texel for s in (256, 512, 1024, 2048, 4096)},
+        "scratch_bytes": 2 * 1023 * 1023 * (16 + 4 + 4 + 4),
+    }
 
 
 def run_bench(mode: str) -> dict:
@@ -144,8 +193,13 @@ def run_bench(mode: str) -> dict:
             "schema": 1,
             "dentdemo": __version__,
             "mode": mode,
-            "machine": {"renderer": gl.renderer, "gl_version": gl.version, "cores": os.cpu_count(),
-                        "platform": platform.platform(), "python": platform.python_version()},
+            "machine": {
+                "renderer": gl.renderer,
+                "gl_version": gl.version,
+                "cores": os.cpu_count(),
+                "platform": platform.platform(),
+                "python": platform.python_version(),
+            },
             "press": PRESS,
             "per_hit": rows,
             "passes": passes,
@@ -161,29 +215,52 @@ def run_bench(mode: str) -> dict:
 
 def print_table(r: dict) -> None:
     m = r["machine"]
-    print(f"dentdemo {r['dentdemo']} bench ({r['mode']}) on {m['renderer']}, {m['cores']} cores, {m['gl_version']}")
-    print(f"press: {r['press']['tool_radius_m']} m ball {r['press']['depth_m']} m into a "
-          f"{r['press']['plate_side_m']} m plate, ball dented {r['press']['tool_depth_m']} m; medians of "
-          f"{r['per_hit'][0]['reps']} after 2 warm-ups")
+    print(
+        f"dentdemo {r['dentdemo']} bench ({r['mode']}) on {m['renderer']}, "
+        f"{m['cores']} cores, {m['gl_version']}"
+    )
+    print(
+        f"press: {r['press']['tool_radius_m']} m ball {r['press']['depth_m']} m into a "
+        f"{r['press']['plate_side_m']} m plate, ball dented {r['press']['tool_depth_m']} m; "
+        f"medians of "
+        f"{r['per_hit'][0]['reps']} after 2 warm-ups"
+    )
     print(f"{'map':>6} {'cam px':>8} {'GPU ms/hit':>11} {'CPU-path ms':>12} {'CPU/GPU':>8}")
     for row in r["per_hit"]:
-        cpu = f"{row['cpu_ms']:12.2f} {row['cpu_over_gpu']:8.2f}" if "cpu_ms" in row else f"{'-':>12} {'-':>8}"
+        cpu = (
+            f"{row['cpu_ms']:12.2f} {row['cpu_over_gpu']:8.2f}"
+            if "cpu_ms" in row
+            else f"{'-':>12} {'-':>8}"
+        )
         print(f"{row['map_size']:>5}² {row['camera_pixels']:>8} {row['gpu_ms']:11.2f} {cpu}")
-    names = sorted({p["pass"] for p in r["passes"]}, key=["address", "peel", "scatter", "normals"].index)
+    names = sorted(
+        {p["pass"] for p in r["passes"]}, key=["address", "peel", "scatter", "normals"].index
+    )
     timer = "GPU timer queries" if r["passes"] and r["passes"][0]["gpu_timer"] else "wall time"
     print(f"by pass, ms ({timer}):  " + "  ".join(f"{n:>8}" for n in names))
     for size in [row["map_size"] for row in r["per_hit"]]:
         vals = {p["pass"]: p["ms"] for p in r["passes"] if p["map_size"] == size}
         print(f"{size:>5}²{'':19}" + "  ".join(f"{vals.get(n, 0):8.2f}" for n in names))
-    print(f"{'bodies':>6} {'frame ms':>9} {'physics':>8} {'carve':>7} {'render':>7}  (1280x720, medians)")
+    print(
+        f"{'bodies':>6} {'frame ms':>9} {'physics':>8} {'carve':>7} {'render':>7}"
+        "  (1280x720, medians)"
+    )
     for f in r["frames"]:
-        print(f"{f['bodies']:>6} {f['frame_ms']:9.1f} {f['physics_ms']:8.1f} {f['carve_ms']:7.1f} {f['render_ms']:7.1f}")
+        print(
+            f"{f['bodies']:>6} {f['frame_ms']:9.1f} {f['physics_ms']:8.1f} "
+            f"{f['carve_ms']:7.1f} {f['render_ms']:7.1f}"
+        )
     mem = r["memory"]
-    print(f"maps: {mem['bytes_per_texel']} bytes/texel ({mem['layout']}); 1024² = "
-          f"{mem['map_bytes']['1024'] / 2**20:.1f} MiB, 4096² = {mem['map_bytes']['4096'] / 2**20:.0f} MiB; "
-          f"carve scratch {mem['scratch_bytes'] / 2**20:.0f} MiB")
-    print(f"CPU path vs GPU path: max |height difference| {r['agreement']['max_abs_diff_m']:.2e} m; "
-          f"bench took {r['seconds']:.1f} s")
+    print(
+        f"maps: {mem['bytes_per_texel']} bytes/texel ({mem['layout']}); 1024² = "
+        f"{mem['map_bytes']['1024'] / 2**20:.1f} MiB, "
+        f"4096² = {mem['map_bytes']['4096'] / 2**20:.0f} MiB; "
+        f"carve scratch {mem['scratch_bytes'] / 2**20:.0f} MiB"
+    )
+    print(
+        f"CPU path vs GPU path: max |height difference| {r['agreement']['max_abs_diff_m']:.2e} m; "
+        f"bench took {r['seconds']:.1f} s"
+    )
 
 
 def plot(r: dict, path: Path) -> None:
@@ -200,12 +277,14 @@ def plot(r: dict, path: Path) -> None:
     ly0, ly1 = np.log10(min(ys)) - 0.1, np.log10(max(ys)) + 0.1
 
     def to_px(x, y):
-        return (pad + (np.log2(x) - lx0) / (lx1 - lx0) * (W - 2 * pad),
-                H - pad - (np.log10(y) - ly0) / (ly1 - ly0) * (H - 2 * pad))
+        return (
+            pad + (np.log2(x) - lx0) / (lx1 - lx0) * (W - 2 * pad),
+            H - pad - (np.log10(y) - ly0) / (ly1 - ly0) * (H - 2 * pad),
+        )
 
     d.rectangle([pad, pad, W - pad, H - pad], outline="black")
     for x in xs:
-        px, _ = to_px(x, 10 ** ly0)
+        px, _ = to_px(x, 10**ly0)
         d.text((px - 14, H - pad + 6), f"{x}^2", fill="black")
     for e in range(int(np.floor(ly0)), int(np.ceil(ly1)) + 1):
         for m in (1, 1.5, 2, 3, 5, 7):
@@ -214,8 +293,10 @@ def plot(r: dict, path: Path) -> None:
                 _, py = to_px(min(xs), y)
                 d.line([pad - 4, py, pad, py], fill="black")
                 d.text((8, py - 6), f"{y:g} ms", fill="black")
-    for key, colour, label in (("gpu_ms", (30, 90, 200), "GPU-resident path (ours)"),
-                               ("cpu_ms", (200, 60, 30), "paper's CPU update path")):
+    for key, colour, label in (
+        ("gpu_ms", (30, 90, 200), "GPU-resident path (ours)"),
+        ("cpu_ms", (200, 60, 30), "paper's CPU update path"),
+    ):
         pts = [to_px(row["map_size"], row[key]) for row in rows if key in row]
         if len(pts) > 1:
             d.line(pts, fill=colour, width=3)
@@ -246,7 +327,9 @@ def run_command(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="measure per-hit cost, both update paths, frame times, memory")
-    p.add_argument("--quick", action="store_true", help="a shorter run (under a minute on llvmpipe)")
+    p.add_argument(
+        "--quick", action="store_true", help="a shorter run (under a minute on llvmpipe)"
+    )
     p.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # the test suite's mode
     p.add_argument("--json", metavar="FILE", help="write the results as JSON")
     p.add_argument("--plot", metavar="PNG", help="plot cost per hit against map size")

@@ -10,7 +10,9 @@ from collections.abc import Callable, Iterator
 import moderngl
 
 
-def median_ms(run: Callable[[], None], finish: Callable[[], None], reps: int, warmup: int = 2) -> tuple[float, list[float]]:
+def median_ms(
+    run: Callable[[], None], finish: Callable[[], None], reps: int, warmup: int = 2
+) -> tuple[float, list[float]]:
     """Median wall milliseconds of `run` (each ended by `finish`, e.g. ctx.finish)."""
     for _ in range(warmup):
         run()

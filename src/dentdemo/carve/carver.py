@@ -23,7 +23,7 @@ NO_CHANGE = 1.0e30  # pass-3 clear value (see footprint.vert)
 
 @dataclass
 class CarveBody:
-    """What the carve needs of a body: its mesh on the GPU, its maps, its pose (world from local)."""
+    """What the carve needs of a body: GPU mesh, maps, and pose (world from local)."""
 
     gpu_mesh: GpuMesh
     maps: SurfaceMaps
@@ -64,8 +64,15 @@ class _Scratch:
         self.peel_clear_fbo = ctx.framebuffer([self.new_height])
 
     def release(self) -> None:
-        release(self.address_fbo, self.peel_fbo, self.peel_clear_fbo, self.address,
-                self.depth_a, self.new_height, self.depth)
+        release(
+            self.address_fbo,
+            self.peel_fbo,
+            self.peel_clear_fbo,
+            self.address,
+            self.depth_a,
+            self.new_height,
+            self.depth,
+        )
 
 
 class Carver:
@@ -108,9 +115,13 @@ class Carver:
             return []
         jobs: list[CarveJob] = []
         if _positive(target_depth):
-            jobs.append(self._job(target, tool, ContactFrame(contact.point, direction), target_depth))
+            jobs.append(
+                self._job(target, tool, ContactFrame(contact.point, direction), target_depth)
+            )
         if _positive(tool_depth):
-            jobs.append(self._job(tool, target, ContactFrame(contact.point, -direction), tool_depth))
+            jobs.append(
+                self._job(tool, target, ContactFrame(contact.point, -direction), tool_depth)
+            )
         ctx = self.gl.ctx
         saved_viewport = ctx.viewport
         with self._timed("address"):
@@ -121,13 +132,19 @@ class Carver:
                 self._peel_pass(slot, job)
         with self._timed("scatter"):
             for slot, job in zip(self._slots, jobs, strict=False):
-                self._footprint_pass(slot, job, self._scatter, job.target.maps.height_fbo, blend_min=True)
+                self._footprint_pass(
+                    slot, job, self._scatter, job.target.maps.height_fbo, blend_min=True
+                )
         with self._timed("normals"):
             for slot, job in zip(self._slots, jobs, strict=False):
-                self._footprint_pass(slot, job, self._normals, job.target.maps.normal_fbo, blend_min=False)
+                self._footprint_pass(
+                    slot, job, self._normals, job.target.maps.normal_fbo, blend_min=False
+                )
         ctx.viewport = saved_viewport
         ctx.scissor = None
-        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.PROGRAM_POINT_SIZE)
+        ctx.disable(
+            moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.PROGRAM_POINT_SIZE
+        )
         ctx.blend_equation = moderngl.FUNC_ADD
         ctx.depth_func = "<"
         if jobs:
@@ -138,12 +155,20 @@ class Carver:
     def _timed(self, name: str) -> AbstractContextManager:
         return self.pass_timer(name) if self.pass_timer else contextlib.nullcontext()
 
-    def measure_passes(self, target: CarveBody, tool: CarveBody, contact: ContactFrame,
-                       target_depth: float, tool_depth: float = 0.0) -> list[CarveJob]:
+    def measure_passes(
+        self,
+        target: CarveBody,
+        tool: CarveBody,
+        contact: ContactFrame,
+        target_depth: float,
+        tool_depth: float = 0.0,
+    ) -> list[CarveJob]:
         """Passes 1-3 only, for the CPU reference path (which then reads their buffers back)."""
         jobs = [self._job(target, tool, contact, target_depth)]
         if _positive(tool_depth):
-            jobs.append(self._job(tool, target, ContactFrame(contact.point, -contact.direction), tool_depth))
+            jobs.append(
+                self._job(tool, target, ContactFrame(contact.point, -contact.direction), tool_depth)
+            )
         for slot, job in zip(self._slots, jobs, strict=False):
             self._address_pass(slot, job)
             self._peel_pass(slot, job)
@@ -163,7 +188,9 @@ class Carver:
             slot.release()
 
     # -- pass 1 --------------------------------------------------------------------------------
-    def _job(self, target: CarveBody, tool: CarveBody, contact: ContactFrame, depth: float) -> CarveJob:
+    def _job(
+        self, target: CarveBody, tool: CarveBody, contact: ContactFrame, depth: float
+    ) -> CarveJob:
         advanced = np.array(tool.model, dtype=np.float64)
         advanced[:3, 3] += contact.direction * depth  # the tool advances by the dent depth
         camera = collision_camera(

@@ -32,12 +32,20 @@ class CpuReference:
             self._mirrors[key] = self.gl.read(body.maps.height)[:, :, 0].copy()
         return self._mirrors[key]
 
-    def carve(self, target: CarveBody, tool: CarveBody, contact: ContactFrame, target_depth: float,
-              tool_depth: float = 0.0) -> None:
+    def carve(
+        self,
+        target: CarveBody,
+        tool: CarveBody,
+        contact: ContactFrame,
+        target_depth: float,
+        tool_depth: float = 0.0,
+    ) -> None:
         for body in (target, tool):
             self.mirror(body)
         jobs = self.carver.measure_passes(target, tool, contact, target_depth, tool_depth)
-        results = [self._heights(index, job) for index, job in enumerate(jobs)]  # read everything first
+        results = [
+            self._heights(index, job) for index, job in enumerate(jobs)
+        ]  # read everything first
         for job, result in zip(jobs, results, strict=True):
             if result is not None:
                 self._apply(job.target, *result)
@@ -73,7 +81,9 @@ class CpuReference:
         r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
         region = mirror[r0:r1, c0:c1]
         np.minimum.at(region, (rows - r0, cols - c0), new)
-        maps.height.write(np.ascontiguousarray(region).tobytes(), viewport=(c0, r0, c1 - c0, r1 - r0))
+        maps.height.write(
+            np.ascontiguousarray(region).tobytes(), viewport=(c0, r0, c1 - c0, r1 - r0)
+        )
         # Normals of the changed rectangle grown by one texel, from central differences in metres.
         H, W = mirror.shape
         R0, R1, C0, C1 = max(r0 - 1, 0), min(r1 + 1, H), max(c0 - 1, 0), min(c1 + 1, W)

@@ -30,7 +30,9 @@ class Shape:
         if len(self.dims) != wanted:
             raise DentdemoError(f"a {self.kind} takes {wanted} size value(s), got {len(self.dims)}")
         if not all(np.isfinite(d) and d > 0 for d in self.dims):
-            raise DentdemoError(f"{self.kind} sizes must be positive finite metres, got {self.dims}")
+            raise DentdemoError(
+                f"{self.kind} sizes must be positive finite metres, got {self.dims}"
+            )
 
     def mesh(self, detail: int = 1) -> Mesh:
         d = self.dims
@@ -54,7 +56,13 @@ class Shape:
         if self.kind == "box":
             return np.sign(np.round(n, 12)) * np.asarray(d) / 2
         if self.kind == "plate":
-            return np.array([np.sign(np.round(n[0], 12)) * d[0] / 2, 0.0, np.sign(np.round(n[2], 12)) * d[0] / 2])
+            return np.array(
+                [
+                    np.sign(np.round(n[0], 12)) * d[0] / 2,
+                    0.0,
+                    np.sign(np.round(n[2], 12)) * d[0] / 2,
+                ]
+            )
         axis = np.array([0.0, 0.0, np.sign(np.round(n[2], 12)) * d[1] / 2])
         if self.kind == "capsule":
             return axis + d[0] * n

@@ -55,7 +55,10 @@ class GpuMesh:
         key = prog.glo
         if key not in self._vaos:
             used = [n for n in self._NAMES if n in prog]
-            fmt = " ".join(f if n in used else f"{f[0]}x4" for f, n in zip(self._LAYOUT.split(), self._NAMES, strict=True))
+            fmt = " ".join(
+                f if n in used else f"{f[0]}x4"
+                for f, n in zip(self._LAYOUT.split(), self._NAMES, strict=True)
+            )
             self._vaos[key] = self._ctx.vertex_array(prog, [(self.vbo, fmt, *used)], self.ibo)
         return self._vaos[key]
 
@@ -108,7 +111,9 @@ def create_maps(
     if initial_height is not None:
         heights = np.ascontiguousarray(initial_height, dtype=np.float32)
         if heights.shape != (size, size):
-            raise DentdemoError(f"initial height map is {heights.shape}, the body needs {(size, size)}")
+            raise DentdemoError(
+                f"initial height map is {heights.shape}, the body needs {(size, size)}"
+            )
         if not np.isfinite(heights).all():
             raise DentdemoError("initial height map holds NaN or infinity")
         height.write(np.maximum(heights, -max_dent_depth).tobytes())
@@ -123,7 +128,9 @@ def create_maps(
     mask_fbo.use()
     mask_fbo.clear(0.0)
     ctx.disable(moderngl.CULL_FACE | moderngl.DEPTH_TEST | moderngl.BLEND)
-    gpu_mesh.vao(program(gl.cache, ctx, "util/uv_mask.vert", "util/uv_mask.frag")).render(moderngl.TRIANGLES)
+    gpu_mesh.vao(program(gl.cache, ctx, "util/uv_mask.vert", "util/uv_mask.frag")).render(
+        moderngl.TRIANGLES
+    )
     su, sv = mesh.uv_scale()
     maps = SurfaceMaps(
         height=height,
@@ -157,13 +164,34 @@ def rebuild_all_normals(gl: GLContext, maps: SurfaceMaps) -> None:
     gl.cache[key].render(moderngl.TRIANGLES, vertices=3)
 
 
+def load_height_png(path: Path, size: int, amplitude: float) -> np.ndarray:
+    """A greyscale PNG as a start height map: white = +amplitude metres, black = 0, resized to
+    size x size. Image rows run top-down; texture row 0 is v = 0, the image's bottom row."""
+    from PIL import Image
+
+    if not (np.isfinite(amplitude) and amplitude >= 0):
+        raise DentdemoError(f"{path}: bump height must be a finite number >= 0, got {amplitude}")
+    try:
+        with Image.open(path) as img:
+            grey = img.convert("F").resize((size, size), Image.Resampling.BILINEAR)
+    except OSError as exc:
+        raise DentdemoError(f"{path}: cannot read the height image ({exc})") from None
+    data = np.asarray(grey, dtype=np.float32)[::-1] / 255.0
+    return np.ascontiguousarray(data * amplitude, dtype=np.float32)
+
+
 def export_maps(gl: GLContext, maps: SurfaceMaps, path: Path) -> None:
-    """Write height (float32 [v, u], metres) and normal (uint8 [v, u, 4]) to an .npz (export only)."""
+    """Write height (float32 [v, u], m) and normal (uint8 [v, u, 4]) to an .npz. Export only."""
     height = gl.read(maps.height)[:, :, 0]
     normal = gl.read(maps.normal)
     tmp = Path(path).with_suffix(".tmp.npz")
-    np.savez(tmp, height=height, normal=normal, texel_metres=np.array(maps.texel_metres),
-             max_dent_depth=np.array(maps.max_dent_depth))
+    np.savez(
+        tmp,
+        height=height,
+        normal=normal,
+        texel_metres=np.array(maps.texel_metres),
+        max_dent_depth=np.array(maps.max_dent_depth),
+    )
     tmp.replace(path)
 
 

@@ -145,7 +145,8 @@ def create_headless(backend: str | None = None) -> GLContext:
     except Exception as exc:  # moderngl raises plain Exception subclasses from glcontext
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise GLUnavailableError(
-            f"dentdemo: no OpenGL 3.3 core context through {name.upper()} ({detail}); {_INSTALL_HINT}"
+            f"dentdemo: no OpenGL 3.3 core context through {name.upper()} ({detail}); "
+            f"{_INSTALL_HINT}"
         ) from None
     return _checked(GLContext(ctx=ctx, backend=name))
 
@@ -177,7 +178,9 @@ def create_window(
         ctx = moderngl.create_context(require=REQUIRED_VERSION)
     except Exception as exc:
         glfw.destroy_window(window)
-        raise GLUnavailableError(f"dentdemo: window context below OpenGL 3.3 core ({exc})") from None
+        raise GLUnavailableError(
+            f"dentdemo: window context below OpenGL 3.3 core ({exc})"
+        ) from None
     return _checked(GLContext(ctx=ctx, backend="glfw", window=window))
 
 
@@ -194,5 +197,7 @@ def _checked(gl: GLContext) -> GLContext:
     if gl.ctx.version_code < REQUIRED_VERSION:
         found = gl.ctx.version_code
         gl.release()
-        raise GLUnavailableError(f"dentdemo: OpenGL {found} found, 330 core required; {_INSTALL_HINT}")
+        raise GLUnavailableError(
+            f"dentdemo: OpenGL {found} found, 330 core required; {_INSTALL_HINT}"
+        )
     return gl

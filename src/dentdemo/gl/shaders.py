@@ -1,5 +1,5 @@
 """Shader loader over `shaders/`: `#version` first, `#include "file"` with a depth limit and cycle
-detection, `#line` markers so compile and link errors name the file and line of the offending source.
+detection, `#line` markers so compile and link errors name the offending file and line.
 """
 
 from __future__ import annotations
@@ -85,7 +85,9 @@ class ShaderLibrary:
             match = _INCLUDE.match(line)
             if not match:
                 if _VERSION.match(line):
-                    raise ShaderError(f"{_short(path)}:{number}: '#version' only on a shader's first line")
+                    raise ShaderError(
+                        f"{_short(path)}:{number}: '#version' only on a shader's first line"
+                    )
                 lines.append(line)
                 continue
             target = self._resolve(match.group(1), path, where=f"{_short(path)}:{number}")
@@ -135,12 +137,14 @@ class ShaderLibrary:
         if stage is None or detail is None:
             # Link errors and unknown formats: name the files and report the most telling line.
             names = ", ".join(_short(s.files[0]) for s in sources.values())
-            summary = detail or next((ln for ln in body if "error" in ln.lower()), body[-1] if body else message)
+            summary = detail or next(
+                (ln for ln in body if "error" in ln.lower()), body[-1] if body else message
+            )
             return f"shader program ({names}): {summary}"
         match = _LOCATION.search(detail)
         assert match is not None
         location, text = sources[stage].describe(int(match.group(2)))
-        what = detail[match.end():].lstrip(" :)").strip()
+        what = detail[match.end() :].lstrip(" :)").strip()
         return f"{location}: {what}" + (f"\n    {text}" if text else "")
 
 

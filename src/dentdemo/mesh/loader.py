@@ -35,8 +35,15 @@ class UVReport:
         return not (self.missing or self.tiled or self.overlapping)
 
     def describe(self) -> str:
-        parts = [n for n, bad in (("missing", self.missing), ("tiled", self.tiled),
-                                  ("overlapping", self.overlapping)) if bad]
+        parts = [
+            n
+            for n, bad in (
+                ("missing", self.missing),
+                ("tiled", self.tiled),
+                ("overlapping", self.overlapping),
+            )
+            if bad
+        ]
         return ", ".join(parts) or "unique"
 
 
@@ -80,13 +87,17 @@ def _overlap_fraction(uv: NDArray[np.float64], tris: NDArray[np.integer]) -> flo
     return float((counts > 1).sum() / covered) if covered else 0.0
 
 
-def reatlas(positions: NDArray, indices: NDArray, normals: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+def reatlas(
+    positions: NDArray, indices: NDArray, normals: NDArray
+) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """New unique UVs from xatlas, with gutters between charts; returns (positions, normals, uvs,
     indices) with vertices split along the new seams."""
     import xatlas
 
     atlas = xatlas.Atlas()
-    atlas.add_mesh(positions.astype(np.float32), indices.astype(np.uint32), normals.astype(np.float32))
+    atlas.add_mesh(
+        positions.astype(np.float32), indices.astype(np.uint32), normals.astype(np.float32)
+    )
     pack = xatlas.PackOptions()
     pack.padding = ATLAS_PADDING
     pack.resolution = ATLAS_RESOLUTION
@@ -128,6 +139,8 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
     uvs = None if visual_uv is None else np.asarray(visual_uv, dtype=np.float64)
     report = check_uvs(uvs, indices)
     if not report.ok:
-        warnings.warn(f"{path}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2)
+        warnings.warn(
+            f"{path}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2
+        )
         positions, normals, uvs, indices = reatlas(positions, indices, normals)
     return Mesh(path.stem, positions, normals, uvs, indices, curved=True)

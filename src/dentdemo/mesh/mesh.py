@@ -1,4 +1,4 @@
-"""The Mesh type: positions, normals, right-handed tangent frames and unique UVs, in local metres."""
+"""The Mesh type: positions, normals, right-handed tangent frames, unique UVs; local metres."""
 
 from __future__ import annotations
 
@@ -96,8 +96,8 @@ class Mesh:
         dist = np.linalg.norm(closest - p, axis=1)
         best = int(np.argmin(dist))
         k = int(candidates[best])
-        closest, bary, dist = closest[best:best + 1], bary[best:best + 1], dist[best:best + 1]
-        a, b, c = a[k:k + 1], b[k:k + 1], c[k:k + 1]
+        closest, bary, dist = closest[best : best + 1], bary[best : best + 1], dist[best : best + 1]
+        a, b, c = a[k : k + 1], b[k : k + 1], c[k : k + 1]
         uv = (self.uvs.astype(np.float64)[self.indices[k]] * bary[0][:, None]).sum(axis=0)
         dpdu, dpdv, _ = _triangle_derivatives(self, np.array([k]))
         n = np.cross(b[0] - a[0], c[0] - a[0])

@@ -16,7 +16,7 @@ from dentdemo.mesh.mesh import Mesh
 #: Gutter around every chart, in uv units (2 texels at 256^2, 32 at 4096^2).
 GUTTER = 1.0 / 128.0
 
-# Cube faces as (normal, a, b) with a x b = normal; a runs along +u and b along +v of the face chart.
+# Cube faces as (normal, a, b) with a x b = normal; a runs along +u, b along +v of the face chart.
 _CUBE_FACES = (
     ((1, 0, 0), (0, 0, -1), (0, 1, 0)),
     ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
@@ -55,7 +55,9 @@ def plate(side: float, subdivisions: int = 8) -> Mesh:
 def box(size: tuple[float, float, float], subdivisions: int = 4) -> Mesh:
     """A box of full extents `size` (x, y, z) centred at the origin; one chart per face."""
     half = np.asarray(size, dtype=np.float64) / 2.0
-    return _cube_atlas("box", subdivisions, lambda n, a, b, s, t: n * half + (s * a + t * b) * half, False)
+    return _cube_atlas(
+        "box", subdivisions, lambda n, a, b, s, t: n * half + (s * a + t * b) * half, False
+    )
 
 
 def sphere(radius: float, subdivisions: int = 32) -> Mesh:
@@ -76,26 +78,36 @@ def _cube_atlas(name: str, n: int, place, curved: bool) -> Mesh:
     for face, (nrm, a, b) in enumerate(_CUBE_FACES):
         nv, av, bv = (np.asarray(x, dtype=np.float64) for x in (nrm, a, b))
         pos = place(nv, av, bv, s, t)
-        nr = pos / np.linalg.norm(pos, axis=1, keepdims=True) if curved else np.tile(nv, (len(pos), 1))
+        nr = (
+            pos / np.linalg.norm(pos, axis=1, keepdims=True)
+            if curved
+            else np.tile(nv, (len(pos), 1))
+        )
         u0, v0, du, dv = _cell(face)
         uv = np.hstack([u0 + (s + 1) / 2 * du, v0 + (t + 1) / 2 * dv])
         indices.append(_grid_indices(n, n, sum(len(p) for p in positions)))
         positions.append(pos)
         normals.append(nr)
         uvs.append(uv)
-    return Mesh(name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices), curved)
+    return Mesh(
+        name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices), curved
+    )
 
 
-def _revolve(name: str, segments: list[tuple[np.ndarray, np.ndarray, np.ndarray]], around: int) -> Mesh:
+def _revolve(
+    name: str, segments: list[tuple[np.ndarray, np.ndarray, np.ndarray]], around: int
+) -> Mesh:
     """Surfaces of revolution about +Z. Each segment is (r, z, profile normal (nr, nz)) sampled
-    along the profile; segments meet at sharp edges, so each gets its own rows and its own v band."""
+    along the profile; segments meet at sharp edges, so each gets its own rows and v band."""
     lengths = [float(np.hypot(np.diff(r), np.diff(z)).sum()) for r, z, _ in segments]
     total = sum(lengths)
     phi = np.linspace(0.0, 2 * math.pi, around + 1)
     positions, normals, uvs, indices = [], [], [], []
     v_start = 0.0
     for (r, z, nrz), length in zip(segments, lengths, strict=True):
-        arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(r), np.diff(z)))]) / max(length, 1e-12)
+        arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(r), np.diff(z)))]) / max(
+            length, 1e-12
+        )
         band = length / total
         v = v_start + GUTTER + arc * (band - 2 * GUTTER)
         v_start += band
@@ -111,7 +123,9 @@ def _revolve(name: str, segments: list[tuple[np.ndarray, np.ndarray, np.ndarray]
         positions.append(pos)
         normals.append(nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12))
         uvs.append(uv)
-    return Mesh(name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices), True)
+    return Mesh(
+        name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices), True
+    )
 
 
 def capsule(radius: float, length: float, around: int = 64, rings: int = 16) -> Mesh:
@@ -122,7 +136,9 @@ def capsule(radius: float, length: float, around: int = 64, rings: int = 16) -> 
     lower, upper = theta[theta <= 0], theta[theta >= 0]
     r = np.concatenate([radius * np.cos(lower), radius * np.cos(upper)])
     z = np.concatenate([-half + radius * np.sin(lower), half + radius * np.sin(upper)])
-    n = np.concatenate([np.stack([np.cos(lower), np.sin(lower)], 1), np.stack([np.cos(upper), np.sin(upper)], 1)])
+    n = np.concatenate(
+        [np.stack([np.cos(lower), np.sin(lower)], 1), np.stack([np.cos(upper), np.sin(upper)], 1)]
+    )
     return _revolve("capsule", [(r, z, n)], around)
 
 

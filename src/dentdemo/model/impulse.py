@@ -43,7 +43,7 @@ def pair_impulses(
     eps_a: ArrayLike,
     eps_b: ArrayLike,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Return (j, j_{eps=1}) magnitudes in N*s for eq. 2 with eps = min(eps_A, eps_B) and eps = 1."""
+    """(j, j_{eps=1}) magnitudes in N*s: eq. 2 with eps = min(eps_A, eps_B), and with eps = 1."""
     eps = np.minimum(np.asarray(eps_a, dtype=np.float64), np.asarray(eps_b, dtype=np.float64))
     j = normal_impulse(normal, vel_a, vel_b, inv_mass_a, inv_mass_b, eps)
     j1 = normal_impulse(normal, vel_a, vel_b, inv_mass_a, inv_mass_b, 1.0)
@@ -53,6 +53,7 @@ def pair_impulses(
 def dent_depth(
     j_elastic: ArrayLike, k: ArrayLike, threshold: ArrayLike, max_dent_depth: ArrayLike
 ) -> NDArray[np.float64]:
-    """Paper eq. 4 with the material's bound: delta = min(max_depth, k * max(0, |j_{eps=1}| - Y)), m."""
+    """Paper eq. 4 with the material's bound, in m:
+    delta = min(max_depth, k * max(0, |j_{eps=1}| - Y))."""
     excess = np.maximum(0.0, np.abs(np.asarray(j_elastic, dtype=np.float64)) - threshold)
     return np.minimum(np.asarray(max_dent_depth, dtype=np.float64), np.asarray(k) * excess)

@@ -99,7 +99,9 @@ class MaterialLibrary:
             return self.materials[name]
         except KeyError:
             known = ", ".join(sorted(self.materials))
-            raise ConfigError(source, where, f"unknown material '{name}' (known: {known})") from None
+            raise ConfigError(
+                source, where, f"unknown material '{name}' (known: {known})"
+            ) from None
 
     def names(self) -> list[str]:
         return sorted(self.materials)
@@ -119,7 +121,9 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
         source = str(path)
         for key in data:
             if key not in ("calibration", "materials"):
-                raise ConfigError(source, f"[{key}]", "unknown table (expected [calibration] or [materials.NAME])")
+                raise ConfigError(
+                    source, f"[{key}]", "unknown table (expected [calibration] or [materials.NAME])"
+                )
         if "calibration" in data:
             calibration_raw = (source, data["calibration"])
         materials = data.get("materials", {})
@@ -128,7 +132,10 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
         for name, table in materials.items():
             raw_tables[name] = (source, table)
     calibration = _parse_calibration(*calibration_raw) if calibration_raw else Calibration()
-    parsed = {name: _parse_material(src, name, tbl, calibration) for name, (src, tbl) in raw_tables.items()}
+    parsed = {
+        name: _parse_material(src, name, tbl, calibration)
+        for name, (src, tbl) in raw_tables.items()
+    }
     if not parsed:
         raise ConfigError(str(files[-1]), "", "no materials defined")
     return MaterialLibrary(calibration, parsed, tuple(str(p) for p in files))
@@ -137,7 +144,9 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
 def _parse_calibration(source: str, table: Any) -> Calibration:
     reader = TableReader(source, "calibration", table)
     calibration = Calibration(
-        k_per_compliance=reader.number("k_per_compliance", Calibration.k_per_compliance, min_value=0.0),
+        k_per_compliance=reader.number(
+            "k_per_compliance", Calibration.k_per_compliance, min_value=0.0
+        ),
         Y_unit=reader.number("Y_unit_Ns", Calibration.Y_unit, min_value=0.0, min_inclusive=False),
     )
     reader.finish()

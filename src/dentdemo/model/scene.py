@@ -61,7 +61,11 @@ class ShapeSpec:
         if self.kind == "box":
             return float(np.linalg.norm(self.size) / 2)
         if self.kind in ("capsule", "cylinder"):
-            return self.length / 2 + self.radius if self.kind == "capsule" else math.hypot(self.length / 2, self.radius)
+            return (
+                self.length / 2 + self.radius
+                if self.kind == "capsule"
+                else math.hypot(self.length / 2, self.radius)
+            )
         if self.kind == "plate":
             return math.hypot(self.side / math.sqrt(2), self.thickness)
         return math.inf
@@ -84,6 +88,10 @@ class BodySpec:
     texels_per_metre: float = DEFAULT_TEXELS_PER_METRE
     #: False: the body takes no dents (its maps are never carved).
     dentable: bool = True
+    #: Optional greyscale PNG laid over the body's atlas as its start height (white = bump_height).
+    bump_map: str = ""
+    #: Height of white in the bump map, m (bumps stand out of the surface).
+    bump_height: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -139,12 +147,14 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product of quaternions (w, x, y, z)."""
     w1, x1, y1, z1 = a
     w2, x2, y2, z2 = b
-    return np.array([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ])
+    return np.array(
+        [
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ]
+    )
 
 
 def load_scene(path: Path, materials: MaterialLibrary) -> Scene:
@@ -153,7 +163,9 @@ def load_scene(path: Path, materials: MaterialLibrary) -> Scene:
     data = load_toml(Path(path))
     for key in data:
         if key not in ("scene", "camera", "light", "physics", "body"):
-            raise ConfigError(source, f"[{key}]", "unknown table (expected scene, camera, light, physics, body)")
+            raise ConfigError(
+                source, f"[{key}]", "unknown table (expected scene, camera, light, physics, body)"
+            )
     scene_t = TableReader(source, "scene", data.get("scene", {}))
     name = scene_t.string("name", Path(path).stem)
     scene_t.finish()
@@ -168,7 +180,9 @@ def load_scene(path: Path, materials: MaterialLibrary) -> Scene:
     for index, table in enumerate(raw_bodies):
         body = _body(source, index, table, materials)
         if body.id in seen:
-            raise ConfigError(source, f"[[body]] #{index + 1} key 'id' = {body.id!r}", "duplicate id")
+            raise ConfigError(
+                source, f"[[body]] #{index + 1} key 'id' = {body.id!r}", "duplicate id"
+            )
         seen.add(body.id)
         bodies.append(body)
     return Scene(name, source, tuple(bodies), camera, light, physics)
@@ -177,8 +191,11 @@ def load_scene(path: Path, materials: MaterialLibrary) -> Scene:
 def _camera(source: str, table: Any) -> CameraSpec:
     r = TableReader(source, "camera", table)
     d = CameraSpec()
-    spec = CameraSpec(r.vector("eye", d.eye), r.vector("target", d.target),
-                      r.number("fov_deg", d.fov_deg, min_value=1.0, max_value=170.0))
+    spec = CameraSpec(
+        r.vector("eye", d.eye),
+        r.vector("target", d.target),
+        r.number("fov_deg", d.fov_deg, min_value=1.0, max_value=170.0),
+    )
     r.finish()
     if np.allclose(spec.eye, spec.target):
         raise ConfigError(source, "[camera]", "eye and target must differ")
@@ -191,9 +208,12 @@ def _light(source: str, table: Any) -> LightSpec:
     direction = r.vector("direction", d.direction)
     if np.linalg.norm(direction) < 1e-9:
         raise r.fail("direction", "must not be zero")
-    spec = LightSpec(direction, r.vector("colour", d.colour),
-                     r.number("intensity", d.intensity, min_value=0.0),
-                     r.number("ambient", d.ambient, min_value=0.0, max_value=1.0))
+    spec = LightSpec(
+        direction,
+        r.vector("colour", d.colour),
+        r.number("intensity", d.intensity, min_value=0.0),
+        r.number("ambient", d.ambient, min_value=0.0, max_value=1.0),
+    )
     r.finish()
     return spec
 
@@ -206,7 +226,9 @@ def _physics(source: str, table: Any) -> PhysicsSpec:
         dt=r.number("dt", d.dt, min_value=1e-5, max_value=0.1),
         substeps=int(r.number("substeps", d.substeps, min_value=1, max_value=64)),
         impact_speed_min=r.number("impact_speed_min", d.impact_speed_min, min_value=0.0),
-        solver_iterations=int(r.number("solver_iterations", d.solver_iterations, min_value=1, max_value=1000)),
+        solver_iterations=int(
+            r.number("solver_iterations", d.solver_iterations, min_value=1, max_value=1000)
+        ),
     )
     r.finish()
     return spec
@@ -229,9 +251,15 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
             raise r.fail("size", "must be positive")
         shape = ShapeSpec(kind, size=size)
     elif kind in ("capsule", "cylinder"):
-        shape = ShapeSpec(kind, radius=r.number("radius", **positive), length=r.number("length", **positive))
+        shape = ShapeSpec(
+            kind, radius=r.number("radius", **positive), length=r.number("length", **positive)
+        )
     elif kind == "plate":
-        shape = ShapeSpec(kind, side=r.number("side", **positive), thickness=r.number("thickness", 0.02, **positive))
+        shape = ShapeSpec(
+            kind,
+            side=r.number("side", **positive),
+            thickness=r.number("thickness", 0.02, **positive),
+        )
     elif kind == "mesh":
         mesh = r.string("mesh")
         path = (Path(source).parent / mesh) if not Path(mesh).is_absolute() else Path(mesh)
@@ -254,8 +282,22 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
         velocity=r.vector("velocity", (0.0, 0.0, 0.0)),
         angular_velocity=r.vector("angular_velocity", (0.0, 0.0, 0.0)),
         static=static,
-        texels_per_metre=r.number("texels_per_metre", DEFAULT_TEXELS_PER_METRE, min_value=1.0, max_value=16384.0),
+        texels_per_metre=r.number(
+            "texels_per_metre", DEFAULT_TEXELS_PER_METRE, min_value=1.0, max_value=16384.0
+        ),
         dentable=r.boolean("dentable", kind != "plane"),
+        bump_map=_bump_path(r, source),
+        bump_height=r.number("bump_height_m", 0.002, min_value=0.0, max_value=0.1),
     )
     r.finish()
     return spec
+
+
+def _bump_path(r: TableReader, source: str) -> str:
+    name = r.string("bump_map", "")
+    if not name:
+        return ""
+    path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
+    if not path.is_file():
+        raise r.fail("bump_map", f"no such file: {path}")
+    return str(path)

@@ -70,15 +70,21 @@ class TableReader:
         value = float(value)
         if not math.isfinite(value):
             raise self.fail(key, "must be finite")
-        if min_value is not None and (value < min_value or (value == min_value and not min_inclusive)):
+        if min_value is not None and (
+            value < min_value or (value == min_value and not min_inclusive)
+        ):
             op = ">=" if min_inclusive else ">"
             raise self.fail(key, f"must be {op} {min_value:g}")
-        if max_value is not None and (value > max_value or (value == max_value and not max_inclusive)):
+        if max_value is not None and (
+            value > max_value or (value == max_value and not max_inclusive)
+        ):
             op = "<=" if max_inclusive else "<"
             raise self.fail(key, f"must be {op} {max_value:g}")
         return value
 
-    def vector(self, key: str, default: Sequence[float] | None, length: int = 3) -> tuple[float, ...]:
+    def vector(
+        self, key: str, default: Sequence[float] | None, length: int = 3
+    ) -> tuple[float, ...]:
         if not self._present(key, default):
             return tuple(float(x) for x in default)
         value = self.table[key]

@@ -7,8 +7,6 @@ import json
 import time
 from pathlib import Path
 
-
-
 from dentdemo.errors import DentdemoError
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import Scene, load_scene
@@ -56,8 +54,10 @@ def run_simulate(args: argparse.Namespace) -> int:
         print(f"removed non-finite body '{body_id}'") if not args.json else None
     if not args.json:
         rate = args.steps / elapsed if elapsed > 0 else float("inf")
-        print(f"{count} impacts in {args.steps} steps ({len(scene.bodies)} bodies, "
-              f"{rate:.0f} steps/s, substeps {scene.physics.substeps})")
+        print(
+            f"{count} impacts in {args.steps} steps ({len(scene.bodies)} bodies, "
+            f"{rate:.0f} steps/s, substeps {scene.physics.substeps})"
+        )
     world.close()
     return 0
 
@@ -69,6 +69,3 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--materials", action="append", default=[], metavar="FILE")
     p.add_argument("--json", action="store_true", help="one JSON object per impact and line")
     p.set_defaults(handler=run_simulate)
-
-
-

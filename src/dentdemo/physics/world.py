@@ -94,11 +94,13 @@ class _Body:
 
 def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
     w, x, y, z = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _addr(ptr: object) -> int:
@@ -127,7 +129,9 @@ class PhysicsWorld:
         self.removed: list[str] = []
         self._contacts = (ode.dContact * MAX_CONTACTS)()
         self._contacts_addr = ctypes.addressof(self._contacts)
-        self._contact_addrs = [self._contacts_addr + i * ctypes.sizeof(ode.dContact) for i in range(MAX_CONTACTS)]
+        self._contact_addrs = [
+            self._contacts_addr + i * ctypes.sizeof(ode.dContact) for i in range(MAX_CONTACTS)
+        ]
         self._geom_offset = ode.dContact.geom.offset
         self._callback = fast.near_callback_type(self._near)
         self._world_addr = _addr(self.world)
@@ -177,7 +181,9 @@ class PhysicsWorld:
             if not (math.isfinite(mass.mass) and mass.mass > 0):
                 ode.dGeomDestroy(geom)
                 ode.dBodyDestroy(body)
-                raise ValueError(f"body '{spec.id}': mass {mass.mass} kg is not positive and finite")
+                raise ValueError(
+                    f"body '{spec.id}': mass {mass.mass} kg is not positive and finite"
+                )
             ode.dBodySetMass(body, ctypes.byref(mass))
             ode.dGeomSetBody(geom, body)
             if shape.kind == "mesh" and np.any(com != 0):
@@ -212,8 +218,13 @@ class PhysicsWorld:
         tris = np.ascontiguousarray(indices, dtype=np.uint32)
         data = ode.dGeomTriMeshDataCreate()
         ode.dGeomTriMeshDataBuildDouble(
-            data, verts.ctypes.data_as(ctypes.c_void_p), 3 * 8, len(verts),
-            tris.ctypes.data_as(ctypes.c_void_p), tris.size, 3 * 4,
+            data,
+            verts.ctypes.data_as(ctypes.c_void_p),
+            3 * 8,
+            len(verts),
+            tris.ctypes.data_as(ctypes.c_void_p),
+            tris.size,
+            3 * 4,
         )
         null = (ode.dTriCallback(), ode.dTriArrayCallback(), ode.dTriRayCallback())
         geom = ode.dCreateTriMesh(self.space, data, *null)
@@ -243,7 +254,9 @@ class PhysicsWorld:
             ode.dGeomSetPosition(record.geom, *centre)
             ode.dGeomSetQuaternion(record.geom, qd)
 
-    def set_velocity(self, body_id: str, linear: NDArray, angular: NDArray = (0.0, 0.0, 0.0)) -> None:
+    def set_velocity(
+        self, body_id: str, linear: NDArray, angular: NDArray = (0.0, 0.0, 0.0)
+    ) -> None:
         record = self.bodies[body_id]
         if record.body is not None:
             ode.dBodySetLinearVel(record.body, *np.asarray(linear, dtype=np.float64))
@@ -306,10 +319,27 @@ class PhysicsWorld:
             q = ode.dBodyGetQuaternion(record.body)
             v = ode.dBodyGetLinearVel(record.body)
             w = ode.dBodyGetAngularVel(record.body)
-            total = p[0] + p[1] + p[2] + q[0] + q[1] + q[2] + q[3] + v[0] + v[1] + v[2] + w[0] + w[1] + w[2]
+            total = (
+                p[0]
+                + p[1]
+                + p[2]
+                + q[0]
+                + q[1]
+                + q[2]
+                + q[3]
+                + v[0]
+                + v[1]
+                + v[2]
+                + w[0]
+                + w[1]
+                + w[2]
+            )
             if not math.isfinite(total):
-                warnings.warn(f"body '{body_id}' became non-finite at t = {self.time:.4f} s; removed",
-                              RuntimeWarning, stacklevel=3)
+                warnings.warn(
+                    f"body '{body_id}' became non-finite at t = {self.time:.4f} s; removed",
+                    RuntimeWarning,
+                    stacklevel=3,
+                )
                 self.remove_body(body_id)
                 self.removed.append(body_id)
 
@@ -319,8 +349,13 @@ class PhysicsWorld:
         if r1 is None or r2 is None or (r1.body is None and r2.body is None):
             return
         contacts = self._contacts
-        count = fast.collide(g1, g2, MAX_CONTACTS, self._contacts_addr + self._geom_offset,
-                             ctypes.sizeof(ode.dContact))
+        count = fast.collide(
+            g1,
+            g2,
+            MAX_CONTACTS,
+            self._contacts_addr + self._geom_offset,
+            ctypes.sizeof(ode.dContact),
+        )
         if count <= 0:
             return
         key = (g1, g2)
@@ -360,20 +395,35 @@ class PhysicsWorld:
         va, vb = np.array(va, dtype=np.float64), np.array(vb, dtype=np.float64)
         inv_a = 0.0 if a.body is None else 1.0 / a.mass
         inv_b = 0.0 if b.body is None else 1.0 / b.mass
-        j, j1 = pair_impulses(normal, va, vb, inv_a, inv_b, a.spec.material.restitution,
-                              b.spec.material.restitution)
+        j, j1 = pair_impulses(
+            normal, va, vb, inv_a, inv_b, a.spec.material.restitution, b.spec.material.restitution
+        )
         key = (a.spec.id, b.spec.id)
         if key in self._pending and self._pending[key].j_elastic >= float(j1):
             return
         self._pending[key] = Impact(
-            step=self.step_index, time=self.time, body_a=a.spec.id, body_b=b.spec.id,
-            point=point, normal=normal, depth=float(geom.depth), vel_a=va, vel_b=vb,
-            mass_a=a.mass, mass_b=b.mass, eps_a=a.spec.material.restitution,
-            eps_b=b.spec.material.restitution, j=float(j), j_elastic=float(j1),
-            pose_a=self.pose(a.spec.id), pose_b=self.pose(b.spec.id),
+            step=self.step_index,
+            time=self.time,
+            body_a=a.spec.id,
+            body_b=b.spec.id,
+            point=point,
+            normal=normal,
+            depth=float(geom.depth),
+            vel_a=va,
+            vel_b=vb,
+            mass_a=a.mass,
+            mass_b=b.mass,
+            eps_a=a.spec.material.restitution,
+            eps_b=b.spec.material.restitution,
+            j=float(j),
+            j_elastic=float(j1),
+            pose_a=self.pose(a.spec.id),
+            pose_b=self.pose(b.spec.id),
         )
 
-    def _point_velocity(self, record: _Body, x: float, y: float, z: float) -> tuple[float, float, float]:
+    def _point_velocity(
+        self, record: _Body, x: float, y: float, z: float
+    ) -> tuple[float, float, float]:
         """Velocity of the body's material point at world (x, y, z), m/s."""
         if record.body is None:
             return (0.0, 0.0, 0.0)

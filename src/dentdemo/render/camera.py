@@ -15,18 +15,27 @@ Mat4 = NDArray[np.float64]
 
 def look_at(eye: NDArray, target: NDArray, up: NDArray = (0.0, 1.0, 0.0)) -> Mat4:
     """View matrix (camera from world)."""
-    return np.asarray(pyrr.matrix44.create_look_at(np.asarray(eye, float), np.asarray(target, float),
-                                                   np.asarray(up, float)), dtype=np.float64).T
+    return np.asarray(
+        pyrr.matrix44.create_look_at(
+            np.asarray(eye, float), np.asarray(target, float), np.asarray(up, float)
+        ),
+        dtype=np.float64,
+    ).T
 
 
 def perspective(fov_deg: float, aspect: float, near: float, far: float) -> Mat4:
-    return np.asarray(pyrr.matrix44.create_perspective_projection(fov_deg, aspect, near, far),
-                      dtype=np.float64).T
+    return np.asarray(
+        pyrr.matrix44.create_perspective_projection(fov_deg, aspect, near, far), dtype=np.float64
+    ).T
 
 
 def orthographic(half_width: float, half_height: float, near: float, far: float) -> Mat4:
-    return np.asarray(pyrr.matrix44.create_orthogonal_projection(
-        -half_width, half_width, -half_height, half_height, near, far), dtype=np.float64).T
+    return np.asarray(
+        pyrr.matrix44.create_orthogonal_projection(
+            -half_width, half_width, -half_height, half_height, near, far
+        ),
+        dtype=np.float64,
+    ).T
 
 
 @dataclass
@@ -43,14 +52,20 @@ class OrbitCamera:
     def from_eye(cls, eye: NDArray, target: NDArray, fov_deg: float = 45.0) -> OrbitCamera:
         offset = np.asarray(eye, float) - np.asarray(target, float)
         distance = float(np.linalg.norm(offset))
-        return cls(np.asarray(target, float), distance, math.atan2(offset[0], offset[2]),
-                   math.asin(offset[1] / distance), fov_deg)
+        return cls(
+            np.asarray(target, float),
+            distance,
+            math.atan2(offset[0], offset[2]),
+            math.asin(offset[1] / distance),
+            fov_deg,
+        )
 
     @property
     def eye(self) -> NDArray[np.float64]:
         c = math.cos(self.pitch)
         return self.target + self.distance * np.array(
-            [c * math.sin(self.yaw), math.sin(self.pitch), c * math.cos(self.yaw)])
+            [c * math.sin(self.yaw), math.sin(self.pitch), c * math.cos(self.yaw)]
+        )
 
     def view(self) -> Mat4:
         return look_at(self.eye, self.target)

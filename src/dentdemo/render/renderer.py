@@ -58,13 +58,17 @@ class Renderer:
         self._flat_normal = ctx.texture((1, 1), 4, bytes([128, 128, 255, 255]))
         self._flat_height = ctx.texture((1, 1), 1, np.zeros(1, "f4").tobytes(), dtype="f4")
         self._line_vbo = ctx.buffer(reserve=6 * 4 * 2 * 1024, dynamic=True)
-        self._line_vao = ctx.vertex_array(self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_colour")])
+        self._line_vao = ctx.vertex_array(
+            self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_colour")]
+        )
         self._plate_sides: dict[str, GpuMesh] = {}
 
     def _lit(self, options: RenderOptions) -> moderngl.Program:
         """The body shader variant for these options (compile-time switches: no cost when off)."""
         defines = {"PARALLAX": int(options.parallax), "VIEW": int(options.view)}
-        return program(self.gl.cache, self.gl.ctx, "render/lit.vert", "render/lit.frag", defines=defines)
+        return program(
+            self.gl.cache, self.gl.ctx, "render/lit.vert", "render/lit.frag", defines=defines
+        )
 
     @property
     def aspect(self) -> float:
@@ -130,7 +134,11 @@ class Renderer:
                 maps.normal.use(0)
                 maps.height.use(1)
                 w, h = maps.size
-                _set(prog, "u_uv_per_metre", (1.0 / (maps.texel_metres[0] * w), 1.0 / (maps.texel_metres[1] * h)))
+                _set(
+                    prog,
+                    "u_uv_per_metre",
+                    (1.0 / (maps.texel_metres[0] * w), 1.0 / (maps.texel_metres[1] * h)),
+                )
                 _set(prog, "u_max_depth", maps.max_dent_depth)
             else:
                 self._flat_normal.use(0)
@@ -209,9 +217,21 @@ class Renderer:
         return self.gl.read_framebuffer(self.output)[::-1]
 
     def release(self) -> None:
-        release(self._line_vao, self._line_vbo, self._empty_sky, self._empty_rect, self.msaa,
-                self.output, self.shadow, self._msaa_colour, self._msaa_depth, self.output_texture,
-                self.shadow_texture, self._flat_normal, self._flat_height)
+        release(
+            self._line_vao,
+            self._line_vbo,
+            self._empty_sky,
+            self._empty_rect,
+            self.msaa,
+            self.output,
+            self.shadow,
+            self._msaa_colour,
+            self._msaa_depth,
+            self.output_texture,
+            self.shadow_texture,
+            self._flat_normal,
+            self._flat_height,
+        )
         self._ground.release()
         for mesh in self._plate_sides.values():
             mesh.release()
