@@ -109,19 +109,7 @@ class Carver:
         target. Both directions read the heights from before this hit (the paper updates a body's
         map only once both are done). Depths that are not positive finite numbers do nothing.
         """
-        direction = np.asarray(contact.direction, dtype=np.float64)
-        direction = direction / max(float(np.linalg.norm(direction)), 1e-30)
-        if not np.all(np.isfinite(direction)) or not np.all(np.isfinite(contact.point)):
-            return []
-        jobs: list[CarveJob] = []
-        if _positive(target_depth):
-            jobs.append(
-                self._job(target, tool, ContactFrame(contact.point, direction), target_depth)
-            )
-        if _positive(tool_depth):
-            jobs.append(
-                self._job(tool, target, ContactFrame(contact.point, -direction), tool_depth)
-            )
+        jobs = self._plan(target, tool, contact, target_depth, tool_depth)
         ctx = self.gl.ctx
         saved_viewport = ctx.viewport
         with self._timed("address"):
@@ -164,11 +152,7 @@ class Carver:
         tool_depth: float = 0.0,
     ) -> list[CarveJob]:
         """Passes 1-3 only, for the CPU reference path (which then reads their buffers back)."""
-        jobs = [self._job(target, tool, contact, target_depth)]
-        if _positive(tool_depth):
-            jobs.append(
-                self._job(tool, target, ContactFrame(contact.point, -contact.direction), tool_depth)
-            )
+        jobs = self._plan(target, tool, contact, target_depth, tool_depth)
         for slot, job in zip(self._slots, jobs, strict=False):
             self._address_pass(slot, job)
             self._peel_pass(slot, job)
@@ -188,6 +172,31 @@ class Carver:
             slot.release()
 
     # -- pass 1 --------------------------------------------------------------------------------
+    def _plan(
+        self,
+        target: CarveBody,
+        tool: CarveBody,
+        contact: ContactFrame,
+        target_depth: float,
+        tool_depth: float,
+    ) -> list[CarveJob]:
+        """The directions of a hit with a positive finite depth: the target dented by the tool,
+        then the tool by the target (moving the other way). Bad contact frames give none."""
+        direction = np.asarray(contact.direction, dtype=np.float64)
+        direction = direction / max(float(np.linalg.norm(direction)), 1e-30)
+        if not np.all(np.isfinite(direction)) or not np.all(np.isfinite(contact.point)):
+            return []
+        jobs: list[CarveJob] = []
+        if _positive(target_depth):
+            jobs.append(
+                self._job(target, tool, ContactFrame(contact.point, direction), target_depth)
+            )
+        if _positive(tool_depth):
+            jobs.append(
+                self._job(tool, target, ContactFrame(contact.point, -direction), tool_depth)
+            )
+        return jobs
+
     def _job(
         self, target: CarveBody, tool: CarveBody, contact: ContactFrame, depth: float
     ) -> CarveJob:
