@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from dentdemo.carve.camera import CollisionCamera, ContactFrame, collision_camera
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.gl.context import GLContext, release
-from dentdemo.gl.shaders import program
+from dentdemo.gl.shaders import program, set_uniform
 
 NO_CHANGE = 1.0e30  # pass-3 clear value (see footprint.vert)
 
@@ -278,18 +278,22 @@ class Carver:
         slot.address.use(0)
         slot.new_height.use(1)
         maps.mask.use(2)
-        prog["u_address"] = 0
-        prog["u_new_height"] = 1
-        prog["u_mask"] = 2
-        prog["u_width"] = job.camera.resolution[0]
+        set_uniform(prog, "u_address", 0)
+        set_uniform(prog, "u_new_height", 1)
+        set_uniform(prog, "u_mask", 2)
+        set_uniform(prog, "u_width", job.camera.resolution[0])
+        set_uniform(prog, "u_rows", job.camera.resolution[1])
         if blend_min:
-            prog["u_point_size"] = 1.0
+            set_uniform(prog, "u_point_size", 1.0)
+            set_uniform(prog, "u_to_centre", True)
+            set_uniform(prog, "u_min_height", -maps.max_dent_depth)
         else:
             maps.height.use(3)
-            prog["u_height"] = 3
-            prog["u_point_size"] = 3.0
-            prog["u_texel_metres"] = maps.texel_metres
-            prog["u_whole_map"] = False
+            set_uniform(prog, "u_height", 3)
+            set_uniform(prog, "u_point_size", 3.0)
+            set_uniform(prog, "u_texel_metres", maps.texel_metres)
+            set_uniform(prog, "u_whole_map", False)
+            set_uniform(prog, "u_to_centre", False)
         w, h = job.camera.resolution
         self._points[id(prog)].render(moderngl.POINTS, vertices=w * h)
 

@@ -163,3 +163,10 @@ def program(
     if key not in gl_cache:
         gl_cache[key] = ShaderLibrary().program(ctx, *names, defines=defines)
     return gl_cache[key]
+
+
+def set_uniform(prog: moderngl.Program, name: str, value: object) -> None:
+    """Set a uniform if the program has it: compilers drop uniforms that a variant or a pass does
+    not use (the normal pass never reads the scatter's height, for one)."""
+    if name in prog:
+        prog[name] = value

@@ -10,6 +10,7 @@ import numpy as np
 from dentdemo.carve.surface import GpuMesh
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.shaders import program
+from dentdemo.gl.shaders import set_uniform as _set
 from dentdemo.mesh import primitives
 from dentdemo.render.camera import OrbitCamera, look_at, orthographic
 from dentdemo.render.looks import GROUND_LOOK, look
@@ -245,12 +246,6 @@ def _matrix(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
 def _matrix3(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
     if name in prog:
         prog[name].write(np.asarray(m, dtype="f4").T.tobytes())
-
-
-def _set(prog: moderngl.Program, name: str, value) -> None:
-    """Set a uniform if the program has it (compilers drop the ones a variant does not use)."""
-    if name in prog:
-        prog[name] = value
 
 
 def _uniforms(prog: moderngl.Program, values: dict) -> None:
