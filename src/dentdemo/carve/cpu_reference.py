@@ -67,12 +67,15 @@ class CpuReference:
         if not hit.any():
             return None
         size = np.array(job.target.maps.size)
-        uv = address[hit][:, :2].astype(np.float64)
+        cos = np.maximum(address[:, :, 3], MIN_COS)
+        grid = np.where(hit, address[:, :, 2] - penetration / cos, np.nan)
+        grid = np.maximum(grid, -job.target.maps.max_dent_depth)
+        uv_grid = address[:, :, :2].astype(np.float64)
+        centred = to_texel_centres(uv_grid, grid, size)
+        uv = uv_grid[hit]
         cols = np.clip(np.floor(uv[:, 0] * size[0]).astype(int), 0, size[0] - 1)
         rows = np.clip(np.floor(uv[:, 1] * size[1]).astype(int), 0, size[1] - 1)
-        cos = np.maximum(address[hit][:, 3], MIN_COS)
-        new = address[hit][:, 2] - penetration[hit] / cos
-        new = np.maximum(new, -job.target.maps.max_dent_depth)
+        new = np.maximum(centred[hit], -job.target.maps.max_dent_depth)
         return rows, cols, new.astype(np.float32)
 
     def _apply(self, body: CarveBody, rows, cols, new) -> None:
@@ -89,6 +92,49 @@ class CpuReference:
         R0, R1, C0, C1 = max(r0 - 1, 0), min(r1 + 1, H), max(c0 - 1, 0), min(c1 + 1, W)
         normals = normal_rgba(mirror, (R0, R1, C0, C1), maps.texel_metres)
         maps.normal.write(normals.tobytes(), viewport=(C0, R0, C1 - C0, R1 - R0))
+
+
+def to_texel_centres(uv: np.ndarray, height: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """Move each camera pixel's new height (NaN: none) to the centre of its texel along the local
+    gradient d h / d uv from neighbouring pixels, as footprint.vert does."""
+    rows, cols = height.shape
+    valid = np.isfinite(height)
+    sample = np.dstack([uv, height])
+
+    def neighbour(dy: int, dx: int) -> tuple[np.ndarray, np.ndarray]:
+        shifted = np.full_like(sample, np.nan)
+        ok = np.zeros_like(valid)
+        ys = slice(max(dy, 0), rows + min(dy, 0))
+        yd = slice(max(-dy, 0), rows + min(-dy, 0))
+        xs = slice(max(dx, 0), cols + min(dx, 0))
+        xd = slice(max(-dx, 0), cols + min(-dx, 0))
+        shifted[yd, xd] = sample[ys, xs]
+        ok[yd, xd] = valid[ys, xs]
+        same_chart = np.all(np.abs(shifted[..., :2] - uv) * size <= 2.0, axis=-1)
+        return shifted, ok & same_chart & valid
+
+    def axis(dy: int, dx: int) -> tuple[np.ndarray, np.ndarray]:
+        hi, has_hi = neighbour(dy, dx)
+        lo, has_lo = neighbour(-dy, -dx)
+        both = has_hi & has_lo
+        diff = np.where(
+            both[..., None], (hi - lo) * 0.5, np.where(has_hi[..., None], hi - sample, sample - lo)
+        )
+        return diff, has_hi | has_lo
+
+    dx, ok_x = axis(0, 1)
+    dy, ok_y = axis(1, 0)
+    det = dx[..., 0] * dy[..., 1] - dy[..., 0] * dx[..., 1]
+    usable = valid & ok_x & ok_y & (np.abs(det) >= 1e-12)
+    safe = np.where(usable, det, 1.0)
+    # grad = inverse(J)^T (dh_x, dh_y), J = [dx.uv | dy.uv] (columns).
+    grad_u = (dy[..., 1] * dx[..., 2] - dx[..., 1] * dy[..., 2]) / safe
+    grad_v = (-dy[..., 0] * dx[..., 2] + dx[..., 0] * dy[..., 2]) / safe
+    texel = np.clip(np.floor(uv * size), 0, size - 1)
+    offset = (texel + 0.5) / size - uv
+    at_centre = np.all(np.abs(offset) * size < 1e-3, axis=-1)
+    moved = height + grad_u * offset[..., 0] + grad_v * offset[..., 1]
+    return np.where(usable & ~at_centre, moved, height)
 
 
 def normal_rgba(height: np.ndarray, box: tuple[int, int, int, int], texel_metres) -> np.ndarray:
