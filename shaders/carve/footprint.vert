@@ -3,6 +3,11 @@
 // whose pass-3 height is set lands on its texel of the target's surface map.
 #include "../include/texel.glsl"
 
+// TO_CENTRE 1: the scatter for curved charts, where several camera pixels share a texel.
+#ifndef TO_CENTRE
+#define TO_CENTRE 0
+#endif
+
 const float NO_CHANGE = 1.0e30;  // pass-3 clear value: nothing reached this pixel
 
 uniform sampler2D u_address;     // pass 2: (u, v, height, cos)
@@ -11,7 +16,6 @@ uniform sampler2D u_mask;        // target chart mask: 1 inside a UV chart, 0 in
 uniform int u_width;             // collision-camera pixels per row
 uniform int u_rows;              // collision-camera rows
 uniform float u_point_size;      // texels covered around the dented texel (1 or 3)
-uniform bool u_to_centre;        // scatter: move each sample's height to its texel's centre
 uniform float u_min_height;      // -max_dent_depth of the target, metres
 
 flat out float v_height;
@@ -27,6 +31,7 @@ bool at_chart_border(ivec2 t, ivec2 size) {
     return false;
 }
 
+#if TO_CENTRE
 // A neighbouring camera pixel's (uv, new height), if it is dented and on the same chart.
 bool sample_at(ivec2 q, vec2 uv, ivec2 size, out vec3 s) {
     if (q.x < 0 || q.y < 0 || q.x >= u_width || q.y >= u_rows) return false;
@@ -64,6 +69,7 @@ float height_at_texel_centre(ivec2 p, vec2 uv, float h, ivec2 size) {
     vec2 gradient = transpose(inverse(jacobian)) * vec2(dx.z, dy.z);  // d h / d uv
     return h + dot(gradient, offset);
 }
+#endif
 
 void main() {
     ivec2 pixel = ivec2(gl_VertexID % u_width, gl_VertexID / u_width);
@@ -77,7 +83,11 @@ void main() {
         gl_PointSize = 1.0;
         return;
     }
-    v_height = u_to_centre ? max(height_at_texel_centre(pixel, uv, h, size), u_min_height) : h;
+#if TO_CENTRE
+    v_height = max(height_at_texel_centre(pixel, uv, h, size), u_min_height);
+#else
+    v_height = h;
+#endif
     // On a chart border the point also covers the gutter texels beside it.
     gl_PointSize = max(u_point_size, at_chart_border(v_texel, size) ? 3.0 : 1.0);
     gl_Position = vec4(texel_ndc(v_texel, size), 0.0, 1.0);

@@ -86,8 +86,15 @@ class Carver:
         self._address = program(gl.cache, ctx, "carve/surface.vert", "carve/address.frag")
         self._peel = program(gl.cache, ctx, "carve/surface.vert", "carve/peel.frag")
         self._scatter = program(gl.cache, ctx, "carve/footprint.vert", "carve/scatter.frag")
+        # Curved charts: several camera pixels per texel, each moved to the texel centre first.
+        self._scatter_curved = program(
+            gl.cache, ctx, "carve/footprint.vert", "carve/scatter.frag", defines={"TO_CENTRE": 1}
+        )
         self._normals = program(gl.cache, ctx, "carve/footprint.vert", "carve/normals.frag")
-        self._points = {id(p): ctx.vertex_array(p, []) for p in (self._scatter, self._normals)}
+        self._points = {
+            id(p): ctx.vertex_array(p, [])
+            for p in (self._scatter, self._scatter_curved, self._normals)
+        }
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
         self.hits = 0
@@ -120,9 +127,9 @@ class Carver:
                 self._peel_pass(slot, job)
         with self._timed("scatter"):
             for slot, job in zip(self._slots, jobs, strict=False):
-                self._footprint_pass(
-                    slot, job, self._scatter, job.target.maps.height_fbo, blend_min=True
-                )
+                curved = job.target.gpu_mesh.mesh.curved
+                scatter = self._scatter_curved if curved else self._scatter
+                self._footprint_pass(slot, job, scatter, job.target.maps.height_fbo, blend_min=True)
         with self._timed("normals"):
             for slot, job in zip(self._slots, jobs, strict=False):
                 self._footprint_pass(
@@ -285,7 +292,6 @@ class Carver:
         set_uniform(prog, "u_rows", job.camera.resolution[1])
         if blend_min:
             set_uniform(prog, "u_point_size", 1.0)
-            set_uniform(prog, "u_to_centre", True)
             set_uniform(prog, "u_min_height", -maps.max_dent_depth)
         else:
             maps.height.use(3)
@@ -293,7 +299,6 @@ class Carver:
             set_uniform(prog, "u_point_size", 3.0)
             set_uniform(prog, "u_texel_metres", maps.texel_metres)
             set_uniform(prog, "u_whole_map", False)
-            set_uniform(prog, "u_to_centre", False)
         w, h = job.camera.resolution
         self._points[id(prog)].render(moderngl.POINTS, vertices=w * h)
 

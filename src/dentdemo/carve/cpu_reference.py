@@ -71,7 +71,9 @@ class CpuReference:
         grid = np.where(hit, address[:, :, 2] - penetration / cos, np.nan)
         grid = np.maximum(grid, -job.target.maps.max_dent_depth)
         uv_grid = address[:, :, :2].astype(np.float64)
-        centred = to_texel_centres(uv_grid, grid, size)
+        # As the scatter pass: flat charts are sampled at texel centres already (aligned camera).
+        curved = job.target.gpu_mesh.mesh.curved
+        centred = to_texel_centres(uv_grid, grid, size) if curved else grid
         uv = uv_grid[hit]
         cols = np.clip(np.floor(uv[:, 0] * size[0]).astype(int), 0, size[0] - 1)
         rows = np.clip(np.floor(uv[:, 1] * size[1]).astype(int), 0, size[1] - 1)
