@@ -351,3 +351,42 @@ def test_small_stack_stays_stacked_and_quiet():
         assert abs(position[0] - 0.01 * i) < 5e-3
         assert np.linalg.norm(world.velocity(f"box{i}")[0]) < 1e-2
     world.close()
+
+
+def _without_libode(*args: str) -> subprocess.CompletedProcess:
+    """Run the CLI in a process where the ODE library cannot be found."""
+    code = (
+        "import ctypes.util, sys;"
+        "real = ctypes.util.find_library;"
+        "ctypes.util.find_library = lambda name: None if name == 'ode' else real(name);"
+        "from dentdemo.cli import main; sys.exit(main(sys.argv[1:]))"
+    )
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True)
+
+
+def test_missing_ode_library_is_one_clear_line():
+    result = _without_libode("simulate", "--scene", str(BALL_DROP), "--steps", "1")
+    assert result.returncode == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "libode8" in lines[0] and "ODE library" in lines[0]
+    # Commands that need no physics still work.
+    assert _without_libode("materials", "--json").returncode == 0
+
+
+def test_every_required_ode_symbol_is_checked():
+    from dentdemo.physics import ode as ode_module
+
+    for name in ("dWorldQuickStep", "dCollide", "dJointCreateContact", "dBodyGetPointVel"):
+        assert name in ode_module.REQUIRED_SYMBOLS
+    assert "ODE_double_precision" in ode_module.ode_configuration()
+
+
+def test_missing_ode_symbol_is_named(monkeypatch):
+    import odepy
+
+    from dentdemo.errors import PhysicsLibraryError
+    from dentdemo.physics import ode as ode_module
+
+    monkeypatch.setattr(odepy, "dCollide", None)  # what odepy leaves for a symbol it cannot find
+    with pytest.raises(PhysicsLibraryError, match="lacks dCollide"):
+        ode_module._load()

@@ -9,7 +9,6 @@ from pathlib import Path
 
 from PIL import Image
 
-from dentdemo.app.simulation import Simulation
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import create_headless
 from dentdemo.model.materials import load_materials
@@ -56,8 +55,10 @@ def render_headless(
     maps_dir: Path | None = None,
     denting: bool = True,
     options: RenderOptions | None = None,
-) -> Simulation | None:
+) -> None:
     """Simulate `frames` steps and write the last frame (every frame when `out` has %d)."""
+    from dentdemo.app.simulation import Simulation  # loads ODE
+
     if frames < 1:
         raise DentdemoError(f"--frames must be at least 1, got {frames}")
     materials = load_materials(materials_files)
@@ -88,7 +89,6 @@ def render_headless(
         sim.close()
     finally:
         gl.release()
-    return None
 
 
 def run_render(args: argparse.Namespace) -> int:

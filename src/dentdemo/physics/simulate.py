@@ -6,15 +6,20 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from dentdemo.errors import DentdemoError
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import Scene, load_scene
-from dentdemo.physics.world import PhysicsWorld
+
+if TYPE_CHECKING:  # ODE loads on first use, so commands without physics run without libode
+    from dentdemo.physics.world import PhysicsWorld
 
 
 def build_world(scene: Scene) -> PhysicsWorld:
     """A PhysicsWorld with every body of the scene; mesh shapes load their triangles."""
+    from dentdemo.physics.world import PhysicsWorld
+
     world = PhysicsWorld(scene.physics)
     for body in scene.bodies:
         arrays = None
