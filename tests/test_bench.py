@@ -2,13 +2,12 @@
 implementation of the carve."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from carve_helpers import heights, release, setup
+from cli_helpers import dentdemo
 from dentdemo.app.indent import cap_error
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
@@ -16,22 +15,7 @@ from dentdemo.carve.cpu_reference import CpuReference
 
 def test_bench_tiny_json_schema(tmp_path):
     out, plot = tmp_path / "bench.json", tmp_path / "bench.png"
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "dentdemo",
-            "bench",
-            "--tiny",
-            "--json",
-            str(out),
-            "--plot",
-            str(plot),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    result = dentdemo("bench", "--tiny", "--json", str(out), "--plot", str(plot), timeout=600)
     assert result.returncode == 0, result.stderr
     data = json.loads(out.read_text())
     assert {

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from cli_helpers import dentdemo
 from dentdemo.app.simulation import Simulation
 from dentdemo.errors import ConfigError
 from dentdemo.model.materials import load_materials
@@ -63,29 +64,22 @@ def test_scene_bump_map_missing_file_is_an_error(tmp_path):
 def test_indent_tool_pattern_png(tmp_path):
     _stripes(tmp_path / "p.png", 256)
     out = tmp_path / "out"
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "dentdemo",
-            "indent",
-            "--tool",
-            "box",
-            "--tool-size",
-            "0.1",
-            "--depth",
-            "0.002",
-            "--tool-pattern",
-            str(tmp_path / "p.png"),
-            "--pattern-height",
-            "0.001",
-            "--map-size",
-            "256",
-            "--out",
-            str(out),
-        ],
-        capture_output=True,
-        text=True,
+    result = dentdemo(
+        "indent",
+        "--tool",
+        "box",
+        "--tool-size",
+        "0.1",
+        "--depth",
+        "0.002",
+        "--tool-pattern",
+        str(tmp_path / "p.png"),
+        "--pattern-height",
+        "0.001",
+        "--map-size",
+        "256",
+        "--out",
+        str(out),
     )
     assert result.returncode == 0, result.stderr
     target = np.load(out / "target_height.npy")

@@ -1,43 +1,35 @@
 """`dentdemo indent` end to end, and the exact round trip of exported maps."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 from PIL import Image
 
 from carve_helpers import heights, release, setup
+from cli_helpers import dentdemo
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.surface import export_maps, import_maps
 
 
 def test_indent_reports_the_cap_error(tmp_path):
     out = tmp_path / "press"
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "dentdemo",
-            "indent",
-            "--tool",
-            "sphere",
-            "--tool-size",
-            "0.05",
-            "--target",
-            "plate",
-            "--target-size",
-            "1",
-            "--depth",
-            "0.01",
-            "--map-size",
-            "1024",
-            "--out",
-            str(out),
-        ],
-        capture_output=True,
-        text=True,
+    result = dentdemo(
+        "indent",
+        "--tool",
+        "sphere",
+        "--tool-size",
+        "0.05",
+        "--target",
+        "plate",
+        "--target-size",
+        "1",
+        "--depth",
+        "0.01",
+        "--map-size",
+        "1024",
+        "--out",
+        str(out),
     )
     assert result.returncode == 0, result.stderr
     summary = json.loads((out / "summary.json").read_text())
@@ -66,11 +58,7 @@ def test_indent_reports_the_cap_error(tmp_path):
     ],
 )
 def test_indent_bad_arguments(tmp_path, args, fragment):
-    result = subprocess.run(
-        [sys.executable, "-m", "dentdemo", "indent", *args, "--out", str(tmp_path)],
-        capture_output=True,
-        text=True,
-    )
+    result = dentdemo("indent", *args, "--out", str(tmp_path))
     assert result.returncode == 1
     assert fragment in result.stderr and len(result.stderr.strip().splitlines()) == 1
 

@@ -1,11 +1,10 @@
 """Material presets: the built-in file, user overrides, and every kind of bad input."""
 
 import json
-import subprocess
-import sys
 
 import pytest
 
+from cli_helpers import dentdemo
 from dentdemo.errors import ConfigError
 from dentdemo.model.materials import load_materials, threshold
 
@@ -108,7 +107,7 @@ def test_missing_file_and_unknown_material(tmp_path):
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "dentdemo", *args], capture_output=True, text=True)
+    return dentdemo(*args)
 
 
 def test_cli_materials_json_lists_every_preset_with_k_and_y():

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cli_helpers import dentdemo
 from dentdemo.errors import ConfigError
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import BodySpec, PhysicsSpec, ShapeSpec, load_scene
@@ -273,9 +274,7 @@ def test_ball_drop_scene_has_what_the_demo_needs():
 
 
 def _simulate(*args):
-    return subprocess.run(
-        [sys.executable, "-m", "dentdemo", "simulate", *args], capture_output=True, text=True
-    )
+    return dentdemo("simulate", *args)
 
 
 def test_simulate_json_matches_eq2_and_repeats_exactly():

@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from cli_helpers import dentdemo
 from dentdemo.app.controller import DemoController
 from dentdemo.app.headless import render_headless
 from dentdemo.model.materials import load_materials
@@ -73,23 +73,16 @@ def test_dents_change_the_image_only_near_impacts(renders, gl):
 
 def test_render_writes_every_frame_and_maps(tmp_path):
     out = tmp_path / "frame_%04d.png"
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "dentdemo",
-            "render",
-            "--frames",
-            "3",
-            "--out",
-            str(out),
-            "--size",
-            "64x48",
-            "--maps-dir",
-            str(tmp_path / "maps"),
-        ],
-        capture_output=True,
-        text=True,
+    result = dentdemo(
+        "render",
+        "--frames",
+        "3",
+        "--out",
+        str(out),
+        "--size",
+        "64x48",
+        "--maps-dir",
+        str(tmp_path / "maps"),
     )
     assert result.returncode == 0, result.stderr
     assert sorted(p.name for p in tmp_path.glob("frame_*.png")) == [
@@ -111,11 +104,7 @@ def test_render_writes_every_frame_and_maps(tmp_path):
     ],
 )
 def test_render_bad_arguments(tmp_path, args, fragment):
-    result = subprocess.run(
-        [sys.executable, "-m", "dentdemo", "render", "--out", str(tmp_path / "x.png"), *args],
-        capture_output=True,
-        text=True,
-    )
+    result = dentdemo("render", "--out", str(tmp_path / "x.png"), *args)
     assert result.returncode == 1 and fragment in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "x.png").exists()
@@ -220,21 +209,14 @@ def xvfb():
 def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):
     shot = tmp_path / "shot.png"
     env = {**os.environ, "DISPLAY": xvfb}
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "dentdemo",
-            "demo",
-            "--scene",
-            str(BALL_DROP),
-            "--screenshot",
-            str(shot),
-            "--exit-after",
-            "1",
-        ],
-        capture_output=True,
-        text=True,
+    result = dentdemo(
+        "demo",
+        "--scene",
+        str(BALL_DROP),
+        "--screenshot",
+        str(shot),
+        "--exit-after",
+        "1",
         env=env,
         timeout=300,
     )
@@ -248,19 +230,12 @@ def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):
 
 def test_demo_without_display_renders_headless(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "dentdemo",
-            "demo",
-            "--screenshot",
-            str(tmp_path / "d.png"),
-            "--exit-after",
-            "0.2",
-        ],
-        capture_output=True,
-        text=True,
+    result = dentdemo(
+        "demo",
+        "--screenshot",
+        str(tmp_path / "d.png"),
+        "--exit-after",
+        "0.2",
         env=env,
         cwd=tmp_path,
     )
