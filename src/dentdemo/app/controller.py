@@ -107,8 +107,7 @@ class DemoController:
             static=True,
             texels_per_metre=1024,
         )
-        self.sim.world.add_body(spec)
-        self.sim._add_render_body(spec)
+        self.sim.add_body(spec)
         return body_id
 
     # -- views ---------------------------------------------------------------------------------

@@ -17,7 +17,6 @@ from dentdemo.carve.shapes import Shape
 from dentdemo.carve.surface import GpuMesh, create_maps, load_height_png
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext, create_headless
-from dentdemo.mesh.mesh import Mesh
 
 DOWN = np.array([0.0, -1.0, 0.0])
 
@@ -47,9 +46,7 @@ def shape_from_args(kind: str, size: list[float], role: str) -> Shape:
         raise DentdemoError(f"--{role}-size: {exc}") from None
 
 
-def _aim_point(
-    shape: Shape, mesh: Mesh, offset: tuple[float, float]
-) -> tuple[np.ndarray, np.ndarray]:
+def _aim_point(shape: Shape, offset: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     """The point above (x, z) = offset on the target's upper side, and its normal there."""
     x, z = offset
     if shape.kind == "sphere":
@@ -78,7 +75,7 @@ def make_setup(
     tool_mesh = tool_shape.mesh(detail)
     target_gpu = GpuMesh(gl, target_mesh)
     target = CarveBody(target_gpu, create_maps(gl, target_gpu, map_size, max_dent_depth))
-    point, normal = _aim_point(target_shape, target_mesh, offset)
+    point, normal = _aim_point(target_shape, offset)
     tool_model = np.eye(4)
     tool_model[:3, 3] = point - tool_shape.support(-normal)
     tool_gpu = GpuMesh(gl, tool_mesh)

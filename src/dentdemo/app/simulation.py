@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +24,8 @@ from dentdemo.model.scene import BodySpec, Scene, ShapeSpec
 from dentdemo.physics.simulate import build_world
 from dentdemo.physics.world import Impact, PhysicsWorld, quat_to_matrix
 
+#: How many recent carve points the contact debug view keeps.
+CARVED_POINTS_KEPT = 1024
 #: Side of the stand-in plate that plays the ground when a body is carved by the ground plane, m.
 GROUND_PROXY_SIDE = 4.0
 
@@ -60,7 +62,6 @@ class SimStats:
     physics_ms: float = 0.0
     carve_ms: float = 0.0  # CPU time issuing the last frame's carves (the GPU runs them async)
     carve_ms_per_hit: float = 0.0
-    history: deque = field(default_factory=lambda: deque(maxlen=120))
 
 
 def shape_mesh(shape: ShapeSpec) -> Mesh:
@@ -113,7 +114,8 @@ class Simulation:
         self.queue: deque[CarveRequest] = deque()
         self.stats = SimStats()
         self.last_impacts: list[Impact] = []
-        self.carved_points: list[NDArray[np.float64]] = []
+        #: Where the most recent carves were, world metres (the contact debug view).
+        self.carved_points: deque[NDArray[np.float64]] = deque(maxlen=CARVED_POINTS_KEPT)
         self._ball_count = 0
         self._time_debt = 0.0
         self.bodies: dict[str, SimBody] = {}
@@ -164,9 +166,13 @@ class Simulation:
             velocity=tuple(float(x) for x in velocity),
             texels_per_metre=texels_per_metre,
         )
+        self.add_body(spec)
+        return body_id
+
+    def add_body(self, spec: BodySpec) -> None:
+        """Add a body while running: to the physics world and, with its maps, to the GPU."""
         self.world.add_body(spec)
         self._add_render_body(spec)
-        return body_id
 
     def remove_body(self, body_id: str) -> None:
         self.world.remove_body(body_id)
@@ -266,7 +272,7 @@ class Simulation:
         self.bodies.clear()
         self.queue.clear()
         self.carved_points.clear()
-        self.stats = replace(SimStats(), history=self.stats.history)
+        self.stats = SimStats()
         self._ball_count = 0
         self.world = build_world(self.scene)
         for spec in self.scene.bodies:

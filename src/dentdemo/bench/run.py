@@ -171,9 +171,9 @@ def frame_times(gl: GLContext, body_counts: list[int], frames: int, size=(1280, 
 
 
 def memory(gl: GLContext) -> dict:
-    from dentdemo.carve.surface import SurfaceMaps
+    from dentdemo.carve.surface import BYTES_PER_TEXEL
 
-    per_texel = SurfaceMaps.bytes_per_texel(None)  # type: ignore[arg-type]
+    per_texel = BYTES_PER_TEXEL
     return {
         "bytes_per_texel": per_texel,
         "layout": "R32F height (4) + RGBA8 normal (4) + R8 chart mask (1)",

@@ -41,13 +41,6 @@ class CollisionCamera:
     #: Pixels (columns, rows); odd, so the central pixel is centred on the snapped contact.
     resolution: tuple[int, int]
 
-    def pixel_of(self, world: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Continuous pixel coordinates (x, y) of world points (for tests and debugging)."""
-        rel = np.atleast_2d(world) - self.eye
-        x = (rel @ self.right / self.half_extent[0] + 1) / 2 * self.resolution[0]
-        y = (rel @ self.up / self.half_extent[1] + 1) / 2 * self.resolution[1]
-        return np.stack([x, y], axis=-1)
-
 
 def _unit(v: Vec3) -> Vec3:
     return v / max(float(np.linalg.norm(v)), 1e-30)

@@ -18,6 +18,8 @@ from dentdemo.mesh.mesh import Mesh
 #: Largest map side, texels; a bigger request is capped with a warning.
 MAX_MAP_SIZE = 4096
 MIN_MAP_SIZE = 16
+#: GPU memory per texel of a body's maps: R32F height (4) + RGBA8 normal (4) + R8 chart mask (1).
+BYTES_PER_TEXEL = 4 + 4 + 1
 
 
 def map_size_for(mesh: Mesh, texels_per_metre: float, cap: int = MAX_MAP_SIZE) -> int:
@@ -84,12 +86,9 @@ class SurfaceMaps:
     def size(self) -> tuple[int, int]:
         return self.height.size
 
-    def bytes_per_texel(self) -> int:
-        return 4 + 4 + 1  # R32F height, RGBA8 normal, R8 mask
-
     def gpu_bytes(self) -> int:
         w, h = self.size
-        return w * h * self.bytes_per_texel()
+        return w * h * BYTES_PER_TEXEL
 
     def release(self) -> None:
         release(self.height_fbo, self.normal_fbo, self.height, self.normal, self.mask)

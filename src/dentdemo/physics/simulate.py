@@ -55,9 +55,9 @@ def run_simulate(args: argparse.Namespace) -> int:
                     f"j={impact.j:8.4f} N*s j1={impact.j_elastic:8.4f} N*s"
                 )
     elapsed = time.perf_counter() - start
-    for body_id in world.removed:
-        print(f"removed non-finite body '{body_id}'") if not args.json else None
     if not args.json:
+        for body_id in world.removed:
+            print(f"removed non-finite body '{body_id}'")
         rate = args.steps / elapsed if elapsed > 0 else float("inf")
         print(
             f"{count} impacts in {args.steps} steps ({len(scene.bodies)} bodies, "

@@ -190,7 +190,7 @@ class Renderer:
         for impact in sim.last_impacts[-512:]:
             p, n = impact.point, impact.normal
             points += [*p, 1.0, 0.9, 0.1, *(p + 0.1 * n), 1.0, 0.2, 0.1]
-        for p in sim.carved_points[-256:]:
+        for p in list(sim.carved_points)[-256:]:
             points += [*(p + [0, 0.002, 0]), 0.1, 1.0, 0.3, *(p + [0, 0.04, 0]), 0.1, 1.0, 0.3]
         if not points:
             return
