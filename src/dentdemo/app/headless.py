@@ -81,8 +81,7 @@ def render_headless(
                 renderer.render(sim, camera, opts)
                 target = out.with_name(out.name % frame) if every else out
                 save_png(renderer.read_rgb(), target)
-        while sim.queue:  # apply what the budget deferred before exporting maps
-            sim.step()
+        sim.apply_queued()  # what the budget deferred, before the maps are exported
         if maps_dir is not None:
             sim.export_maps(maps_dir)
         renderer.release()

@@ -37,10 +37,8 @@ class SimBody:
     spec: BodySpec
     mesh: Mesh
     gpu_mesh: GpuMesh
-    maps: SurfaceMaps | None
-
-    def carve_body(self, model: NDArray[np.float64]) -> CarveBody | None:
-        return CarveBody(self.gpu_mesh, self.maps, model) if self.maps is not None else None
+    #: A body that takes no dents gets a flat 16^2 stand-in: it can still dent others.
+    maps: SurfaceMaps
 
 
 @dataclass(frozen=True)
@@ -127,17 +125,11 @@ class Simulation:
     def _add_render_body(self, spec: BodySpec) -> SimBody:
         mesh = shape_mesh(spec.shape)
         gpu = GpuMesh(self.gl, mesh)
-        maps = None
-        if spec.dentable:
-            size = map_size_for(mesh, spec.texels_per_metre)
-            start = (
-                load_height_png(Path(spec.bump_map), size, spec.bump_height)
-                if spec.bump_map
-                else None
-            )
-            maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth, start)
-        else:
-            maps = create_maps(self.gl, gpu, 16, spec.material.max_dent_depth)  # a flat stand-in
+        size = map_size_for(mesh, spec.texels_per_metre) if spec.dentable else 16
+        start = None
+        if spec.dentable and spec.bump_map:
+            start = load_height_png(Path(spec.bump_map), size, spec.bump_height)
+        maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth, start)
         body = SimBody(spec, mesh, gpu, maps)
         self.bodies[spec.id] = body
         return body
@@ -202,10 +194,7 @@ class Simulation:
                 if request is not None:
                     self.queue.append(request)
         start = time.perf_counter()
-        done = 0
-        while self.queue and done < self.carve_budget:
-            self._carve(self.queue.popleft())
-            done += 1
+        done = self.apply_queued(self.carve_budget)
         carve_ms = (time.perf_counter() - start) * 1e3
         self.stats.frames += 1
         self.stats.hits += done
@@ -214,6 +203,15 @@ class Simulation:
         if done:
             self.stats.carve_ms_per_hit = carve_ms / done
         return impacts
+
+    def apply_queued(self, limit: int | None = None) -> int:
+        """Carve up to `limit` queued impacts (all without a limit), oldest first; returns how many.
+        No physics step: what the budget deferred lands on the current state."""
+        done = 0
+        while self.queue and (limit is None or done < limit):
+            self._carve(self.queue.popleft())
+            done += 1
+        return done
 
     def advance(self, seconds: float, max_steps: int = 4) -> int:
         """Steps owed for `seconds` of wall time times the time scale (window use)."""
@@ -285,7 +283,7 @@ class Simulation:
         directory.mkdir(parents=True, exist_ok=True)
         written = []
         for body_id, body in sorted(self.bodies.items()):
-            if not body.spec.dentable or body.maps is None:
+            if not body.spec.dentable:
                 continue
             height = self.gl.read(body.maps.height)[:, :, 0]
             np.save(directory / f"{body_id}_height.npy", height)
@@ -305,5 +303,4 @@ class Simulation:
 
 def _release_body(body: SimBody) -> None:
     body.gpu_mesh.release()
-    if body.maps is not None:
-        body.maps.release()
+    body.maps.release()

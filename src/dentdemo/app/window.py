@@ -32,7 +32,7 @@ class DemoWindow:
         self.window = self.gl.window
         fb = glfw.get_framebuffer_size(self.window)
         self.app = DemoController(self.gl, scene, materials, (max(fb[0], 16), max(fb[1], 16)))
-        self._press: dict[int, tuple[float, float]] = {}
+        self._press: dict[int, tuple[float, float, int]] = {}  # button -> (x, y, modifiers)
         self._last_cursor = (0.0, 0.0)
         self._shots = 0
         glfw.set_mouse_button_callback(self.window, self._on_button)

@@ -97,7 +97,6 @@ class Carver:
         }
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
-        self.hits = 0
         #: Wraps each pass when set (the benchmark's GPU timer queries); names as in DESIGN.md.
         self.pass_timer: Callable[[str], AbstractContextManager] | None = None
 
@@ -144,7 +143,6 @@ class Carver:
         ctx.depth_func = "<"
         if jobs:
             self.last_jobs = jobs
-            self.hits += 1
         return jobs
 
     def _timed(self, name: str) -> AbstractContextManager:

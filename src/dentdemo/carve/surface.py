@@ -86,10 +86,6 @@ class SurfaceMaps:
     def size(self) -> tuple[int, int]:
         return self.height.size
 
-    def gpu_bytes(self) -> int:
-        w, h = self.size
-        return w * h * BYTES_PER_TEXEL
-
     def release(self) -> None:
         release(self.height_fbo, self.normal_fbo, self.height, self.normal, self.mask)
 

@@ -60,11 +60,6 @@ class Mesh:
         a, b, c = self.triangle_corners()
         return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
 
-    def uv_area(self) -> float:
-        t = self.uvs.astype(np.float64)[self.indices]
-        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-        return float(0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())
-
     def uv_scale(self) -> tuple[float, float]:
         """Area-weighted mean |dP/du| and |dP/dv|: metres per unit of u and of v."""
         dpdu, dpdv, area = _triangle_derivatives(self)

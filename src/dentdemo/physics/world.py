@@ -24,7 +24,6 @@ MAX_CONTACTS = 8
 #: step, which would make restitution depend on dt.
 CONTACT_CFM = 1e-9
 _CONTACT_MODE = ode.dContactBounce | ode.dContactSoftCFM | ode.dContactApprox1
-_GEOM_PLANE = 4  # dPlaneClass
 
 
 @dataclass
@@ -139,7 +138,6 @@ class PhysicsWorld:
         self._space_addr = _addr(self.space)
         self._pair_surface: dict[tuple[int, int], tuple[float, float]] = {}
         self._pending: dict[tuple[str, str], Impact] = {}
-        self._substep = 0
         self._vel_buffer = (ode.dReal * 4)()
         self._vel_addr = ctypes.addressof(self._vel_buffer)
 
@@ -300,8 +298,7 @@ class PhysicsWorld:
         one per touching pair (the one with the largest j_elastic), sorted by body ids."""
         self._pending = {}
         sub_dt = self.spec.dt / self.spec.substeps
-        for sub in range(self.spec.substeps):
-            self._substep = sub
+        for _ in range(self.spec.substeps):
             fast.space_collide(self._space_addr, None, self._callback)
             ode.dWorldQuickStep(self.world, sub_dt)
             ode.dJointGroupEmpty(self.contact_group)
