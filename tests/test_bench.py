@@ -33,8 +33,15 @@ def test_bench_tiny_json_schema(tmp_path):
     for row in data["per_hit"]:
         assert {"map_size", "gpu_ms", "cpu_ms", "cpu_over_gpu", "reps", "camera_pixels"} <= set(row)
         assert row["gpu_ms"] > 0 and row["cpu_ms"] > 0
+        # Both directions' cameras: the plate's and the ball's, each a footprint, not a body.
+        assert len(row["camera_pixels"]) == 2 and all(p > 0 for p in row["camera_pixels"])
     assert [r["map_size"] for r in data["per_hit"]] == [128, 256]
-    assert {p["pass"] for p in data["passes"]} == {"address", "peel", "scatter", "normals"}
+    assert {p["pass"] for p in data["passes"]} == {"address", "peel", "gather", "normals"}
+    assert [(d["plate_side_m"], d["map_size"]) for d in data["same_dent"]] == [
+        (0.25, 128),
+        (0.5, 256),
+    ]
+    assert all(d["gpu_ms"] > 0 for d in data["same_dent"])
     for frame in data["frames"]:
         assert {"bodies", "frame_ms", "physics_ms", "carve_ms", "render_ms"} <= set(frame)
     assert data["memory"]["bytes_per_texel"] == 9

@@ -4,9 +4,21 @@ uniform vec3 u_right;        // unit; screen +x
 uniform vec3 u_up;           // unit; screen +y
 uniform vec3 u_forward;      // unit; the press direction, into the screen
 uniform vec2 u_half_extent;  // half width and height of the view, metres
-uniform vec2 u_depth_range;  // near and far distance along u_forward, metres
+uniform vec2 u_depth_range;  // near and far distance along u_forward from u_eye, metres
+uniform ivec2 u_resolution;  // camera pixels (columns, rows) in use in the scratch buffers
 
 // Window depth in [0, 1] of a view depth in metres (linear: the camera is orthographic).
 float window_depth(float depth) {
     return clamp((depth - u_depth_range.x) / (u_depth_range.y - u_depth_range.x), 0.0, 1.0);
+}
+
+// Continuous camera-pixel coordinates of a world offset from the eye: the centre of pixel (i, j)
+// is at (i, j).
+vec2 camera_pixel(vec3 rel) {
+    vec2 ndc = vec2(dot(rel, u_right) / u_half_extent.x, dot(rel, u_up) / u_half_extent.y);
+    return (ndc * 0.5 + 0.5) * vec2(u_resolution) - 0.5;
+}
+
+bool inside_camera(ivec2 pixel) {
+    return all(greaterThanEqual(pixel, ivec2(0))) && all(lessThan(pixel, u_resolution));
 }

@@ -23,14 +23,25 @@ from dentdemo.gl.context import GLContext, create_headless
 
 #: The press every per-hit measurement uses: a 5 cm ball 1 cm into a 1 m plate, the ball 2 mm.
 PRESS = {"tool_radius_m": 0.05, "plate_side_m": 1.0, "depth_m": 0.01, "tool_depth_m": 0.002}
+#: The same dent in texels on plates of growing size (plate side m, map side): the cost of a hit
+#: must follow its footprint, not the map.
+SAME_DENT = [(0.5, 512), (4.0, 4096)]
 MODES = {
-    "tiny": {"sizes": [128, 256], "reps": 2, "bodies": [8], "frames": 4, "cpu_sizes": [128, 256]},
+    "tiny": {
+        "sizes": [128, 256],
+        "reps": 2,
+        "bodies": [8],
+        "frames": 4,
+        "cpu_sizes": [128, 256],
+        "same_dent": [(0.25, 128), (0.5, 256)],
+    },
     "quick": {
         "sizes": [256, 1024, 4096],
         "reps": 5,
         "bodies": [20, 100],
         "frames": 20,
         "cpu_sizes": [256, 1024, 4096],
+        "same_dent": SAME_DENT,
     },
     "full": {
         "sizes": [256, 512, 1024, 2048, 4096],
@@ -38,18 +49,46 @@ MODES = {
         "bodies": [20, 100, 500],
         "frames": 60,
         "cpu_sizes": [256, 512, 1024, 2048, 4096],
+        "same_dent": SAME_DENT,
     },
 }
 
 
-def _press_setup(gl: GLContext, size: int):
+def _press_setup(gl: GLContext, size: int, side: float = PRESS["plate_side_m"]):
     return make_setup(
         gl,
-        shape_from_args("plate", [PRESS["plate_side_m"]], "target"),
+        shape_from_args("plate", [side], "target"),
         shape_from_args("sphere", [PRESS["tool_radius_m"]], "tool"),
         size,
         256,
     )
+
+
+def _press(setup) -> tuple:
+    return (setup.target, setup.tool, setup.contact, PRESS["depth_m"], PRESS["tool_depth_m"])
+
+
+def same_dent(gl: GLContext, plates: list[tuple[float, int]], reps: int) -> list[dict]:
+    """Median ms per press (both bodies) of the same dent, in metres and in texels, on plates
+    whose maps grow with their side."""
+    carver = Carver(gl)
+    rows = []
+    for side, size in plates:
+        setup = _press_setup(gl, size, side)
+        press = _press(setup)
+        ms, _ = median_ms(lambda press=press: carver.carve(*press), gl.ctx.finish, reps)
+        rows.append(
+            {
+                "plate_side_m": side,
+                "map_size": size,
+                "texel_m": side / size,
+                "gpu_ms": ms,
+                "camera_pixels": [job.camera.pixels for job in carver.last_jobs],
+            }
+        )
+        _release(setup)
+    carver.release()
+    return rows
 
 
 def _release(setup) -> None:
@@ -68,13 +107,7 @@ def per_hit(
     finish = gl.ctx.finish
     for size in sizes:
         gpu_setup = _press_setup(gl, size)
-        press = (
-            gpu_setup.target,
-            gpu_setup.tool,
-            gpu_setup.contact,
-            PRESS["depth_m"],
-            PRESS["tool_depth_m"],
-        )
+        press = _press(gpu_setup)
         gpu_ms, _ = median_ms(lambda press=press: carver.carve(*press), finish, reps)
         timer = PassTimer(gl.ctx)
         carver.pass_timer = timer
@@ -84,25 +117,20 @@ def per_hit(
         carver.pass_timer = None
         for name, ms in timer.medians().items():
             passes.append({"map_size": size, "pass": name, "ms": ms, "gpu_timer": timer.gpu})
-        job = carver.last_jobs[0]
+        pixels = [job.camera.pixels for job in carver.last_jobs]
         row = {
             "map_size": size,
             "gpu_ms": gpu_ms,
             "reps": reps,
-            "camera_pixels": job.camera.resolution[0] * job.camera.resolution[1],
+            # Collision-camera pixels of both directions: the plate dented, the ball dented.
+            "camera_pixels": pixels,
         }
         if size in cpu_sizes:
             cpu_setup = _press_setup(gl, size)
             reference = CpuReference(gl, carver)
             for body in (cpu_setup.target, cpu_setup.tool):
                 reference.mirror(body)  # the CPU path's own copy, made once, outside the timing
-            cpu_press = (
-                cpu_setup.target,
-                cpu_setup.tool,
-                cpu_setup.contact,
-                PRESS["depth_m"],
-                PRESS["tool_depth_m"],
-            )
+            cpu_press = _press(cpu_setup)
             cpu_ms, _ = median_ms(lambda ref=reference, p=cpu_press: ref.carve(*p), finish, reps)
             row["cpu_ms"] = cpu_ms
             row["cpu_over_gpu"] = cpu_ms / gpu_ms if gpu_ms > 0 else None
@@ -178,7 +206,8 @@ def memory(gl: GLContext) -> dict:
         "bytes_per_texel": per_texel,
         "layout": "R32F height (4) + RGBA8 normal (4) + R8 chart mask (1)",
         "map_bytes": {str(s): s * s * per_texel for s in (256, 512, 1024, 2048, 4096)},
-        "scratch_bytes": 2 * 1023 * 1023 * (16 + 4 + 4 + 4),
+        # Two directions: address RGBA32F (16) + tool depth R32F (4) + depth buffer (4).
+        "scratch_bytes": 2 * 1023 * 1023 * (16 + 4 + 4),
     }
 
 
@@ -188,6 +217,7 @@ def run_bench(mode: str) -> dict:
     try:
         start = time.perf_counter()
         rows, passes, agreement = per_hit(gl, cfg["sizes"], cfg["cpu_sizes"], cfg["reps"])
+        same = same_dent(gl, cfg["same_dent"], cfg["reps"])
         frames = frame_times(gl, cfg["bodies"], cfg["frames"])
         result = {
             "schema": 1,
@@ -202,6 +232,7 @@ def run_bench(mode: str) -> dict:
             },
             "press": PRESS,
             "per_hit": rows,
+            "same_dent": same,
             "passes": passes,
             "frames": frames,
             "memory": memory(gl),
@@ -225,16 +256,30 @@ def print_table(r: dict) -> None:
         f"medians of "
         f"{r['per_hit'][0]['reps']} after 2 warm-ups"
     )
-    print(f"{'map':>6} {'cam px':>8} {'GPU ms/hit':>11} {'CPU-path ms':>12} {'CPU/GPU':>8}")
+    print(
+        f"{'map':>6} {'cam px plate':>12} {'cam px ball':>11} {'GPU ms/hit':>11} "
+        f"{'CPU-path ms':>12} {'CPU/GPU':>8}"
+    )
     for row in r["per_hit"]:
         cpu = (
             f"{row['cpu_ms']:12.2f} {row['cpu_over_gpu']:8.2f}"
             if "cpu_ms" in row
             else f"{'-':>12} {'-':>8}"
         )
-        print(f"{row['map_size']:>5}² {row['camera_pixels']:>8} {row['gpu_ms']:11.2f} {cpu}")
+        px = [*row["camera_pixels"], 0, 0]
+        print(f"{row['map_size']:>5}² {px[0]:>12} {px[1]:>11} {row['gpu_ms']:11.2f} {cpu}")
+    same = r.get("same_dent", [])
+    if same:
+        print(
+            "same dent in texels:  "
+            + ";  ".join(
+                f"{d['plate_side_m']:g} m plate at {d['map_size']}² {d['gpu_ms']:.2f} ms"
+                for d in same
+            )
+            + f";  ratio {same[-1]['gpu_ms'] / same[0]['gpu_ms']:.2f}"
+        )
     names = sorted(
-        {p["pass"] for p in r["passes"]}, key=["address", "peel", "scatter", "normals"].index
+        {p["pass"] for p in r["passes"]}, key=["address", "peel", "gather", "normals"].index
     )
     timer = "GPU timer queries" if r["passes"] and r["passes"][0]["gpu_timer"] else "wall time"
     print(f"by pass, ms ({timer}):  " + "  ".join(f"{n:>8}" for n in names))

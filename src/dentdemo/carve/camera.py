@@ -1,9 +1,12 @@
-"""Pass 1: the orthographic collision camera, computed on the CPU from the contact frame.
+"""Pass 1: the orthographic collision camera, computed on the CPU from the contact frame and both
+bodies' triangles.
 
 World space, metres. The camera looks along the press direction (the way the tool moves into the
-target). Its right axis follows the target's +u tangent at the contact and its pixel pitch follows
-the target's texel pitch there, with the centre snapped to a texel centre: on flat charts every
-camera pixel then samples exactly one texel centre.
+target). Its right axis follows the target's +u tangent at the contact and its pixel pitch is the
+target's texel pitch there as the camera sees it, with a pixel centre on the centre of the texel
+under the contact: on a flat chart pressed square-on every pixel centre is a texel centre. Its
+rectangle is the footprint bound of `footprint.overlap`, grown by two texels so that pass 5 also
+reaches the texels beside the dent, and never the whole body.
 """
 
 from __future__ import annotations
@@ -14,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.carve.constants import MIN_COS
+from dentdemo.carve.footprint import Overlap, Projected, Rect, overlap
 from dentdemo.mesh.mesh import Mesh
 
 Vec3 = NDArray[np.float64]
@@ -28,7 +33,7 @@ class ContactFrame:
     direction: Vec3
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CollisionCamera:
     eye: Vec3
     right: Vec3
@@ -38,86 +43,150 @@ class CollisionCamera:
     half_extent: tuple[float, float]
     #: Near and far distance along `forward` from `eye`, metres.
     depth_range: tuple[float, float]
-    #: Pixels (columns, rows); odd, so the central pixel is centred on the snapped contact.
+    #: Pixels (columns, rows).
     resolution: tuple[int, int]
+    #: View depths (from `eye`, metres) that hold every target point the press can move.
+    slab: tuple[float, float]
+    #: The target's largest texel side near the contact, metres (margins of pass 5).
+    texel_metres: float
+    #: Triangles each pass draws (indices into the meshes): the target's in the view (pass 2),
+    #: the tool's in the view (pass 3), the target's in the view and the slab (passes 4 and 5).
+    target_view: NDArray[np.int64]
+    tool_view: NDArray[np.int64]
+    target_texels: NDArray[np.int64]
+    #: Those of `target_texels` on a chart border (the gutter draws of passes 4 and 5).
+    target_gutter: NDArray[np.int64]
+
+    @property
+    def pixel_metres(self) -> tuple[float, float]:
+        return (
+            2.0 * self.half_extent[0] / self.resolution[0],
+            2.0 * self.half_extent[1] / self.resolution[1],
+        )
+
+    @property
+    def pixels(self) -> int:
+        return self.resolution[0] * self.resolution[1]
+
+
+@dataclass(frozen=True)
+class BodyPose:
+    """What pass 1 needs of one body: its mesh, pose (world from local) and the range its height
+    map can hold (metres: no height above `max_height`, none below -`max_dent_depth`)."""
+
+    mesh: Mesh
+    model: NDArray[np.float64]
+    max_height: float = 0.0
+    max_dent_depth: float = 0.0
+    #: The finer side of the body's texels, metres (0: unknown).
+    texel_metres: float = 0.0
 
 
 def _unit(v: Vec3) -> Vec3:
     return v / max(float(np.linalg.norm(v)), 1e-30)
 
 
-def collision_camera(
-    target: Mesh,
-    target_model: NDArray[np.float64],
-    map_size: tuple[int, int],
-    tool_centre: NDArray[np.float64],
-    tool_radius: float,
-    contact: ContactFrame,
-    max_resolution: int,
-    oversample: float | None = None,
-) -> CollisionCamera:
-    """The camera for carving `target` (pose `target_model`, world from local) around `contact`.
-
-    The tool lies inside the sphere (`tool_centre`, `tool_radius`) (world, metres), which bounds
-    its footprint. `oversample` is camera pixels
-    per texel along each axis: 1 on flat charts (aligned), 2 on curved ones by default.
-    """
-    model = np.asarray(target_model, dtype=np.float64)
-    linear = model[:3, :3]
-    forward = _unit(np.asarray(contact.direction, dtype=np.float64))
-    point = np.asarray(contact.point, dtype=np.float64)
-    local = np.linalg.solve(linear, point - model[:3, 3])
-    surf = target.surface_at(local)
-    dpdu, dpdv = linear @ surf.dpdu, linear @ surf.dpdv  # world metres per uv unit
-    width, height = map_size
-
+def _axes(dpdu: Vec3, forward: Vec3) -> tuple[Vec3, Vec3]:
     right = dpdu - (dpdu @ forward) * forward
     if np.linalg.norm(right) < 1e-9 * max(np.linalg.norm(dpdu), 1e-30):
         helper = np.array([1.0, 0.0, 0.0]) if abs(forward[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
         right = helper - (helper @ forward) * forward
     right = _unit(right)
-    up = np.cross(right, forward)
+    return right, np.cross(right, forward)
 
-    # Texel pitch seen by the camera, metres; grazing views are clamped to a fifth of a texel.
-    texel_u = np.linalg.norm(dpdu) / width
-    texel_v = np.linalg.norm(dpdv) / height
-    pitch_x = max(abs(dpdu @ right) / width, 0.2 * texel_u)
-    pitch_y = max(abs(dpdv @ up) / height, 0.2 * texel_v)
-    factor = oversample if oversample is not None else (2.0 if target.curved else 1.0)
-    pitch_x, pitch_y = pitch_x / factor, pitch_y / factor
 
-    # Snap the view axis to the centre of the texel under the contact.
+def collision_camera(
+    target: BodyPose,
+    tool: BodyPose,
+    map_size: tuple[int, int],
+    contact: ContactFrame,
+    max_resolution: int,
+    loose: bool = False,
+) -> CollisionCamera | None:
+    """The camera for carving `target` by `tool` (already advanced by the dent depth) at `contact`.
+
+    None when the bodies cannot overlap. `loose` bounds the view by both bodies' bounding spheres
+    instead of the footprint (for tests of the footprint bound only).
+    """
+    model = np.asarray(target.model, dtype=np.float64)
+    linear = model[:3, :3]
+    forward = _unit(np.asarray(contact.direction, dtype=np.float64))
+    point = np.asarray(contact.point, dtype=np.float64)
+    surf = target.mesh.surface_at(np.linalg.solve(linear, point - model[:3, 3]))
+    dpdu, dpdv = linear @ surf.dpdu, linear @ surf.dpdv  # world metres per uv unit
+    width, height = map_size
+    right, up = _axes(dpdu, forward)
+
+    # Texel pitch as the camera sees it, metres; grazing views are clamped.
+    texel_u = float(np.linalg.norm(dpdu)) / width
+    texel_v = float(np.linalg.norm(dpdv)) / height
+    pitch_x = max(abs(dpdu @ right) / width, MIN_COS * texel_u)
+    pitch_y = max(abs(dpdv @ up) / height, MIN_COS * texel_v)
+    # The tool is known to its own texels only: where the target's texels are finer, a pixel spans
+    # a whole number of them (pixel centres stay on texel centres) up to one of the tool's texels.
+    pitch_x *= max(1, math.floor(tool.texel_metres / pitch_x))
+    pitch_y *= max(1, math.floor(tool.texel_metres / pitch_y))
+
+    # A pixel centre on the centre of the texel under the contact.
     uv = surf.uv
     centre_uv = (np.floor(uv * [width, height]) + 0.5) / [width, height]
-    snapped = point + dpdu * (centre_uv[0] - uv[0]) + dpdv * (centre_uv[1] - uv[1])
+    origin = point + dpdu * (centre_uv[0] - uv[0]) + dpdv * (centre_uv[1] - uv[1])
 
-    # The overlap lies inside both bounding spheres: the view covers the smaller one's circle.
-    offset = np.asarray(tool_centre, dtype=np.float64) - snapped
-    target_centre = model[:3, 3] - snapped
-    target_radius = target.bounding_radius * float(np.linalg.norm(linear, ord=2))
+    axes = np.stack([right, up, forward])
+    target_tris = Projected(target.mesh, model, origin, axes)
+    tool_tris = Projected(tool.mesh, tool.model, origin, axes)
+    bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height)
+    if bound is None:
+        return None
+    if loose:
+        bound = _loose(target_tris, tool_tris, bound)
+    margin = 2.0 * max(texel_u, texel_v) + max(pitch_x, pitch_y)
+    rect = bound.rect.grown(margin)
 
-    def circle(rel: Vec3, radius: float) -> float:
-        return max(abs(rel @ right), abs(rel @ up)) + radius * 1.02
+    # Pixel centres at whole multiples of the pitch from the origin.
+    def lattice(lo: float, hi: float, pitch: float) -> tuple[float, int, float]:
+        k0, k1 = math.floor(lo / pitch), math.ceil(hi / pitch)
+        count = k1 - k0 + 1
+        if count > max_resolution:  # capped: fewer, larger pixels over the same span
+            count = max_resolution
+            pitch = (hi - lo) / (count - 1)
+            return (lo + hi) / 2, count, pitch
+        return (k0 + k1) / 2 * pitch, count, pitch
 
-    half = min(circle(offset, tool_radius), circle(target_centre, target_radius))
-    half += max(pitch_x, pitch_y)
-    cols = min(2 * math.ceil(half / pitch_x) + 1, max_resolution - (1 - max_resolution % 2))
-    rows = min(2 * math.ceil(half / pitch_y) + 1, max_resolution - (1 - max_resolution % 2))
-    half_x, half_y = cols * pitch_x / 2, rows * pitch_y / 2
-    if cols * pitch_x < 2 * half:  # capped: fewer, larger pixels cover the footprint
-        half_x = half
-    if rows * pitch_y < 2 * half:
-        half_y = half
+    cx, cols, pitch_x = lattice(rect.x0, rect.x1, pitch_x)
+    cy, rows, pitch_y = lattice(rect.y0, rect.y1, pitch_y)
 
-    reach = max(0.0, -(offset @ forward)) + 1.01 * tool_radius + 1e-4
-    eye = snapped - forward * reach
-    far = reach + 2.0 * tool_radius + 2.0 * target.bounding_radius + 1e-3
+    # Depth range: everything of both bodies, so that nothing in front of the target is clipped.
+    bumps = sum(max(b.max_height, 0.0) + max(b.max_dent_depth, 0.0) for b in (target, tool))
+    near_s = min(target_tris.s_range()[0], tool_tris.s_range()[0]) - bumps - 1e-4
+    far_s = max(target_tris.s_range()[1], tool_tris.s_range()[1]) + bumps + 1e-4
+    eye = origin + right * cx + up * cy + forward * near_s
+    grow = 2.0 * max(texel_u, texel_v)
+    proud = max(target.max_height, 0.0) + max(tool.max_height, 0.0)
+    half_x, half_y = cols * pitch_x / 2.0, rows * pitch_y / 2.0
+    view = Rect(cx - half_x, cx + half_x, cy - half_y, cy + half_y)
+    slab = (bound.slab[0] - 2.0 * grow, bound.slab[1] + 2.0 * grow)  # as pass 5's (texel_passes)
+    texels = target_tris.meeting(view, slab)
     return CollisionCamera(
         eye=eye,
         right=right,
         up=up,
         forward=forward,
-        half_extent=(float(half_x), float(half_y)),
-        depth_range=(0.0, float(far)),
+        half_extent=(half_x, half_y),
+        depth_range=(0.0, far_s - near_s),
         resolution=(int(cols), int(rows)),
+        slab=(bound.slab[0] - near_s - grow, bound.slab[1] - near_s + grow),
+        texel_metres=max(texel_u, texel_v),
+        # Occluders of the slab lie nearer than its far side; tool faces that can reach it lie
+        # beyond its near side (a pixel's slope more for the bilinear neighbours at the rim).
+        target_view=target_tris.meeting(view, (-np.inf, slab[1])),
+        tool_view=tool_tris.meeting(view, (slab[0] - proud - margin, np.inf)),
+        target_texels=texels,
+        target_gutter=texels[target.mesh.chart_border()[texels]],
     )
+
+
+def _loose(target: Projected, tool: Projected, bound: Overlap) -> Overlap:
+    """Both bodies' whole extents: the bound before the footprint (tests only)."""
+    rect = target.rect().intersect(tool.rect()) or bound.rect
+    return Overlap(rect, target.s_range())

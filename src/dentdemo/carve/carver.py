@@ -1,6 +1,7 @@
-"""The five GPU passes of the carve (DESIGN.md "The carve"), for a target dented by a tool and,
-when the tool is deformable too, the tool dented by the target. No GPU->CPU reads; the work of one
-hit follows its footprint (the collision camera's pixels), never the size of the maps."""
+"""The five GPU passes of the carve (docs/carve.md), for a target dented by a tool and, when the
+tool is deformable too, the tool dented by the target. No GPU->CPU reads; the work of one hit
+follows its footprint (the collision camera's pixels and the texels under them), never the size
+of the maps."""
 
 from __future__ import annotations
 
@@ -13,12 +14,19 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo.carve.camera import CollisionCamera, ContactFrame, collision_camera
+from dentdemo.carve.camera import BodyPose, CollisionCamera, ContactFrame, collision_camera
+from dentdemo.carve.constants import MIN_COS, NO_CHANGE, NO_SURFACE, shader_defines
+from dentdemo.carve.passes import Pass, PassState
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
+from dentdemo.carve.texel_passes import (
+    camera_uniforms,
+    clip_uniforms,
+    model_uniforms,
+    rebuild_normals,
+    texture_space_passes,
+)
 from dentdemo.gl.context import GLContext, release
-from dentdemo.gl.shaders import program, set_uniform
-
-NO_CHANGE = 1.0e30  # pass-3 clear value (see footprint.vert)
+from dentdemo.gl.shaders import program
 
 
 @dataclass
@@ -37,6 +45,16 @@ class CarveBody:
         scale = float(np.linalg.norm(np.asarray(self.model)[:3, :3], ord=2))
         return self.gpu_mesh.mesh.bounding_radius * scale
 
+    def pose(self, model: NDArray[np.float64] | None = None) -> BodyPose:
+        m = self.model if model is None else model
+        return BodyPose(
+            self.gpu_mesh.mesh,
+            np.asarray(m, dtype=np.float64),
+            self.maps.max_height,
+            self.maps.max_dent_depth,
+            min(self.maps.texel_metres),
+        )
+
 
 @dataclass(frozen=True)
 class CarveJob:
@@ -46,33 +64,30 @@ class CarveJob:
     tool: CarveBody
     tool_model: NDArray[np.float64]
     camera: CollisionCamera
+    depth: float
 
 
 class _Scratch:
-    """Per-slot collision-camera buffers, allocated once at the largest resolution; each hit uses
-    (and clears) only its own viewport, so it costs its footprint."""
+    """Per-direction collision-camera buffers, allocated once at the largest resolution; each hit
+    uses (and clears) only its own viewport, so it costs its footprint."""
 
     def __init__(self, ctx: moderngl.Context, size: int) -> None:
         self.address = ctx.texture((size, size), 4, dtype="f4")
-        self.depth_a = ctx.texture((size, size), 1, dtype="f4")
-        self.new_height = ctx.texture((size, size), 1, dtype="f4")
+        self.tool_depth = ctx.texture((size, size), 1, dtype="f4")
         self.depth = ctx.depth_texture((size, size))
-        for tex in (self.address, self.depth_a, self.new_height):
+        for tex in (self.address, self.tool_depth):
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.address_fbo = ctx.framebuffer([self.address, self.depth_a], self.depth)
-        self.peel_fbo = ctx.framebuffer([self.new_height], self.depth)
-        self.peel_clear_fbo = ctx.framebuffer([self.new_height])
+        self.address_fbo = ctx.framebuffer([self.address], self.depth)
+        self.peel_fbo = ctx.framebuffer([self.tool_depth], self.depth)
 
     def release(self) -> None:
-        release(
-            self.address_fbo,
-            self.peel_fbo,
-            self.peel_clear_fbo,
-            self.address,
-            self.depth_a,
-            self.new_height,
-            self.depth,
-        )
+        release(self.address_fbo, self.peel_fbo, self.address, self.tool_depth, self.depth)
+
+
+_SURFACE_STATE = {
+    "address": PassState(depth_test=True, depth_func="<", cull="back"),  # target front faces
+    "peel": PassState(depth_test=True, depth_func=">", cull="front"),  # tool back faces, farthest
+}
 
 
 class Carver:
@@ -82,23 +97,26 @@ class Carver:
         self.gl = gl
         self.max_resolution = max_resolution
         self._slots = [_Scratch(gl.ctx, max_resolution) for _ in range(2)]
-        ctx = gl.ctx
-        self._address = program(gl.cache, ctx, "carve/surface.vert", "carve/address.frag")
-        self._peel = program(gl.cache, ctx, "carve/surface.vert", "carve/peel.frag")
-        self._scatter = program(gl.cache, ctx, "carve/footprint.vert", "carve/scatter.frag")
-        # Curved charts: several camera pixels per texel, each moved to the texel centre first.
-        self._scatter_curved = program(
-            gl.cache, ctx, "carve/footprint.vert", "carve/scatter.frag", defines={"TO_CENTRE": 1}
+        defines = shader_defines()
+        self._address = Pass(
+            "address",
+            program(gl.cache, gl.ctx, "carve/surface.vert", "carve/address.frag", defines=defines),
+            _SURFACE_STATE["address"],
+            ("u_height",),
         )
-        self._normals = program(gl.cache, ctx, "carve/footprint.vert", "carve/normals.frag")
-        self._points = {
-            id(p): ctx.vertex_array(p, [])
-            for p in (self._scatter, self._scatter_curved, self._normals)
-        }
+        self._peel = Pass(
+            "peel",
+            program(gl.cache, gl.ctx, "carve/surface.vert", "carve/peel.frag", defines=defines),
+            _SURFACE_STATE["peel"],
+            ("u_height",),
+        )
+        self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
-        #: Wraps each pass when set (the benchmark's GPU timer queries); names as in DESIGN.md.
+        #: Wraps each pass when set (the benchmark's GPU timer queries); names as in docs/carve.md.
         self.pass_timer: Callable[[str], AbstractContextManager] | None = None
+        #: Bound the camera by whole bodies instead of the footprint (tests of the bound only).
+        self.loose_camera = False
 
     # -- public --------------------------------------------------------------------------------
     def carve(
@@ -115,38 +133,29 @@ class Carver:
         target. Both directions read the heights from before this hit (the paper updates a body's
         map only once both are done). Depths that are not positive finite numbers do nothing.
         """
-        jobs = self._plan(target, tool, contact, target_depth, tool_depth)
+        jobs = self.plan(target, tool, contact, target_depth, tool_depth)
         ctx = self.gl.ctx
-        saved_viewport = ctx.viewport
+        saved_fbo, saved_viewport = ctx.fbo, ctx.viewport
         with self._timed("address"):
             for slot, job in zip(self._slots, jobs, strict=False):
                 self._address_pass(slot, job)
         with self._timed("peel"):
             for slot, job in zip(self._slots, jobs, strict=False):
                 self._peel_pass(slot, job)
-        with self._timed("scatter"):
+        with self._timed("gather"):
             for slot, job in zip(self._slots, jobs, strict=False):
-                curved = job.target.gpu_mesh.mesh.curved
-                scatter = self._scatter_curved if curved else self._scatter
-                self._footprint_pass(slot, job, scatter, job.target.maps.height_fbo, blend_min=True)
+                self._gather_pass(slot, job)
         with self._timed("normals"):
-            for slot, job in zip(self._slots, jobs, strict=False):
-                self._footprint_pass(
-                    slot, job, self._normals, job.target.maps.normal_fbo, blend_min=False
+            for job in jobs:
+                target = job.target
+                rebuild_normals(
+                    self.gl, target.gpu_mesh, target.maps, target.model, job.camera, self._texel
                 )
+        saved_fbo.use()
         ctx.viewport = saved_viewport
-        ctx.scissor = None
-        ctx.disable(
-            moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.PROGRAM_POINT_SIZE
-        )
-        ctx.blend_equation = moderngl.FUNC_ADD
-        ctx.depth_func = "<"
         if jobs:
             self.last_jobs = jobs
         return jobs
-
-    def _timed(self, name: str) -> AbstractContextManager:
-        return self.pass_timer(name) if self.pass_timer else contextlib.nullcontext()
 
     def measure_passes(
         self,
@@ -157,11 +166,14 @@ class Carver:
         tool_depth: float = 0.0,
     ) -> list[CarveJob]:
         """Passes 1-3 only, for the CPU reference path (which then reads their buffers back)."""
-        jobs = self._plan(target, tool, contact, target_depth, tool_depth)
+        jobs = self.plan(target, tool, contact, target_depth, tool_depth)
+        saved_fbo, saved_viewport = self.gl.ctx.fbo, self.gl.ctx.viewport
         for slot, job in zip(self._slots, jobs, strict=False):
             self._address_pass(slot, job)
+        for slot, job in zip(self._slots, jobs, strict=False):
             self._peel_pass(slot, job)
-        self.gl.ctx.depth_func = "<"
+        saved_fbo.use()
+        self.gl.ctx.viewport = saved_viewport
         return jobs
 
     def slot(self, index: int) -> _Scratch:
@@ -172,12 +184,14 @@ class Carver:
         return self._slots[slot].address
 
     def release(self) -> None:
-        release(*self._points.values())
         for slot in self._slots:
             slot.release()
 
+    def _timed(self, name: str) -> AbstractContextManager:
+        return self.pass_timer(name) if self.pass_timer else contextlib.nullcontext()
+
     # -- pass 1 --------------------------------------------------------------------------------
-    def _plan(
+    def plan(
         self,
         target: CarveBody,
         tool: CarveBody,
@@ -186,136 +200,92 @@ class Carver:
         tool_depth: float,
     ) -> list[CarveJob]:
         """The directions of a hit with a positive finite depth: the target dented by the tool,
-        then the tool by the target (moving the other way). Bad contact frames give none."""
+        then the tool by the target (moving the other way). Bad contact frames and presses whose
+        bodies cannot meet give none."""
         direction = np.asarray(contact.direction, dtype=np.float64)
-        direction = direction / max(float(np.linalg.norm(direction)), 1e-30)
-        if not np.all(np.isfinite(direction)) or not np.all(np.isfinite(contact.point)):
+        norm = float(np.linalg.norm(direction))
+        point = np.asarray(contact.point, dtype=np.float64)
+        if not (np.isfinite(norm) and norm > 1e-12) or not np.all(np.isfinite(point)):
             return []
+        direction = direction / norm
         jobs: list[CarveJob] = []
-        if _positive(target_depth):
-            jobs.append(
-                self._job(target, tool, ContactFrame(contact.point, direction), target_depth)
-            )
-        if _positive(tool_depth):
-            jobs.append(
-                self._job(tool, target, ContactFrame(contact.point, -direction), tool_depth)
-            )
+        for body, other, frame, depth in (
+            (target, tool, ContactFrame(point, direction), target_depth),
+            (tool, target, ContactFrame(point, -direction), tool_depth),
+        ):
+            if np.isfinite(depth) and depth > 0.0:
+                job = self._job(body, other, frame, float(depth))
+                if job is not None:
+                    jobs.append(job)
         return jobs
 
     def _job(
         self, target: CarveBody, tool: CarveBody, contact: ContactFrame, depth: float
-    ) -> CarveJob:
+    ) -> CarveJob | None:
         advanced = np.array(tool.model, dtype=np.float64)
         advanced[:3, 3] += contact.direction * depth  # the tool advances by the dent depth
         camera = collision_camera(
-            target.gpu_mesh.mesh,
-            target.model,
+            target.pose(),
+            tool.pose(advanced),
             target.maps.size,
-            advanced[:3, 3],
-            tool.radius(),
             contact,
             self.max_resolution,
+            loose=self.loose_camera,
         )
-        return CarveJob(target, tool, advanced, camera)
+        if camera is None:
+            return None
+        return CarveJob(target, tool, advanced, camera, depth)
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
     def _address_pass(self, slot: _Scratch, job: CarveJob) -> None:
-        ctx = self.gl.ctx
-        w, h = job.camera.resolution
-        slot.address_fbo.use()
-        ctx.viewport = (0, 0, w, h)
-        slot.address_fbo.clear(-1.0, -1.0, 0.0, 0.0, depth=1.0, viewport=(0, 0, w, h))
-        ctx.disable(moderngl.BLEND)
-        ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.front_face = "ccw"
-        ctx.cull_face = "back"
-        ctx.depth_func = "<"
-        prog = self._address
-        _set_camera(prog, job.camera)
-        _set_model(prog, job.target.model)
-        job.target.maps.height.use(0)
-        prog["u_height"] = 0
-        job.target.gpu_mesh.vao(prog).render(moderngl.TRIANGLES)
+        view = (0, 0, *job.camera.resolution)
+        slot.address_fbo.clear(NO_SURFACE, NO_SURFACE, 0.0, 0.0, depth=1.0, viewport=view)
+        self._address.run(
+            self.gl.ctx,
+            slot.address_fbo,
+            view,
+            lambda prog: job.target.gpu_mesh.draw(prog, job.camera.target_view, "address"),
+            (job.target.maps.height,),
+            {**camera_uniforms(job.camera), **model_uniforms(job.target.model)},
+        )
 
     def _peel_pass(self, slot: _Scratch, job: CarveJob) -> None:
-        ctx = self.gl.ctx
-        w, h = job.camera.resolution
-        slot.peel_clear_fbo.use()
-        slot.peel_clear_fbo.clear(NO_CHANGE, 0.0, 0.0, 0.0, viewport=(0, 0, w, h))
-        slot.peel_fbo.use()
-        ctx.viewport = (0, 0, w, h)
-        ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.cull_face = "front"  # keep the tool's back faces
-        ctx.depth_func = ">"  # farther than the target's surface
-        prog = self._peel
-        _set_camera(prog, job.camera)
-        _set_model(prog, job.tool_model)
-        job.tool.maps.height.use(0)
-        slot.address.use(1)
-        slot.depth_a.use(2)
-        prog["u_height"] = 0
-        prog["u_address"] = 1
-        prog["u_depth_a"] = 2
-        prog["u_min_height"] = -job.target.maps.max_dent_depth
-        job.tool.gpu_mesh.vao(prog).render(moderngl.TRIANGLES)
+        view = (0, 0, *job.camera.resolution)
+        slot.peel_fbo.clear(NO_CHANGE, 0.0, 0.0, 0.0, depth=0.0, viewport=view)
+        self._peel.run(
+            self.gl.ctx,
+            slot.peel_fbo,
+            view,
+            lambda prog: job.tool.gpu_mesh.draw(prog, job.camera.tool_view, "peel"),
+            (job.tool.maps.height,),
+            {**camera_uniforms(job.camera), **model_uniforms(job.tool_model)},
+        )
 
-    # -- passes 4 and 5 ------------------------------------------------------------------------
-    def _footprint_pass(
-        self,
-        slot: _Scratch,
-        job: CarveJob,
-        prog: moderngl.Program,
-        fbo: moderngl.Framebuffer,
-        blend_min: bool,
-    ) -> None:
-        ctx = self.gl.ctx
+    # -- pass 4 --------------------------------------------------------------------------------
+    def _gather_pass(self, slot: _Scratch, job: CarveJob) -> None:
         maps = job.target.maps
-        fbo.use()
-        ctx.viewport = (0, 0, *maps.size)
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.enable(moderngl.PROGRAM_POINT_SIZE)
-        if blend_min:
-            ctx.enable(moderngl.BLEND)
-            ctx.blend_func = moderngl.ONE, moderngl.ONE
-            ctx.blend_equation = moderngl.MIN
-        else:
-            ctx.disable(moderngl.BLEND)
-        slot.address.use(0)
-        slot.new_height.use(1)
-        maps.mask.use(2)
-        set_uniform(prog, "u_address", 0)
-        set_uniform(prog, "u_new_height", 1)
-        set_uniform(prog, "u_mask", 2)
-        set_uniform(prog, "u_width", job.camera.resolution[0])
-        set_uniform(prog, "u_rows", job.camera.resolution[1])
-        if blend_min:
-            set_uniform(prog, "u_point_size", 1.0)
-            set_uniform(prog, "u_min_height", -maps.max_dent_depth)
-        else:
-            maps.height.use(3)
-            set_uniform(prog, "u_height", 3)
-            set_uniform(prog, "u_point_size", 3.0)
-            set_uniform(prog, "u_texel_metres", maps.texel_metres)
-            set_uniform(prog, "u_whole_map", False)
-        w, h = job.camera.resolution
-        self._points[id(prog)].render(moderngl.POINTS, vertices=w * h)
+        cam = job.camera
+        px, py = cam.pixel_metres
+        uniforms = {
+            **camera_uniforms(cam),
+            **model_uniforms(job.target.model),
+            **clip_uniforms(cam, maps, cam.slab),
+            "u_min_height": -maps.max_dent_depth,
+            "u_ceiling": maps.max_height,
+            "u_pixel_diagonal": float(np.hypot(px, py)),
+        }
+        for gutter in (0, 1):
+            gather = self._texel[f"gather{gutter}"]
+            gather.run(
+                self.gl.ctx,
+                maps.height_fbo,
+                (0, 0, *maps.size),
+                lambda prog, g=gutter: job.target.gpu_mesh.draw(
+                    prog, cam.target_texels if not g else cam.target_gutter, f"texels{g}"
+                ),
+                (slot.address, slot.tool_depth, maps.mask),
+                uniforms,
+            )
 
 
-def _positive(value: float) -> bool:
-    return bool(np.isfinite(value) and value > 0.0)
-
-
-def _set_camera(prog: moderngl.Program, cam: CollisionCamera) -> None:
-    prog["u_eye"] = tuple(cam.eye)
-    prog["u_right"] = tuple(cam.right)
-    prog["u_up"] = tuple(cam.up)
-    prog["u_forward"] = tuple(cam.forward)
-    prog["u_half_extent"] = cam.half_extent
-    prog["u_depth_range"] = cam.depth_range
-
-
-def _set_model(prog: moderngl.Program, model: NDArray[np.float64]) -> None:
-    m = np.asarray(model, dtype=np.float64)
-    normal_matrix = np.linalg.inv(m[:3, :3]).T
-    prog["u_model"].write(m.T.astype("f4").tobytes())  # column-major
-    prog["u_normal_matrix"].write(normal_matrix.T.astype("f4").tobytes())
+__all__ = ["MIN_COS", "CarveBody", "CarveJob", "Carver"]

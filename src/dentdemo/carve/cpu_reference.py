@@ -1,35 +1,58 @@
-"""The paper's own update path, on the CPU, as a reference and for the benchmark: the GPU draws
-passes 1-3, the CPU reads the address map and both depth buffers back, computes the new heights and
-normals with numpy, and uploads the changed rectangle. Faithful and vectorised: the same math as
-the GPU passes (scatter with MIN into a CPU copy of the map, central differences in metres)."""
+"""The update on the CPU, as a reference and for the benchmark (the paper's own update runs on the
+CPU): the GPU draws passes 1-3, the CPU reads the address map and the peeled tool depths back,
+then computes passes 4 and 5 with numpy, texel by texel at each texel's own centre, exactly as
+docs/carve.md states them, and uploads the changed rectangles. Float64 throughout; it agrees with
+the GPU path to float32 rounding."""
 
 from __future__ import annotations
 
-import numpy as np
+from dataclasses import dataclass
 
-from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import CarveBody, Carver
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.carve.camera import CollisionCamera, ContactFrame
+from dentdemo.carve.carver import CarveBody, CarveJob, Carver
+from dentdemo.carve.constants import GUTTER_REACH_TEXELS, MIN_COS, NO_CHANGE, NO_SURFACE
 from dentdemo.gl.context import GLContext
 
-MIN_COS = 0.2  # as in peel.frag
-#: Penetrations below this (m) are depth-buffer quantisation, not contact.
-PENETRATION_FLOOR = 2e-6
+Array = NDArray[np.float64]
+
+
+@dataclass
+class Texels:
+    """Texels of a map with the surface under each (world metres): rows, cols (ints), world
+    point (k, 3), unit normal (k, 3), metres per texel step along +u and +v (k, 3) each, and the
+    chart texel a gutter texel takes its normal from (rows, cols)."""
+
+    rows: NDArray[np.int64]
+    cols: NDArray[np.int64]
+    world: Array
+    normal: Array
+    per_u: Array
+    per_v: Array
+    source_rows: NDArray[np.int64]
+    source_cols: NDArray[np.int64]
+    gutter: NDArray[np.bool_]
 
 
 class CpuReference:
-    """Carves like Carver, but steps 4 and 5 run on the CPU. Keeps a CPU copy of each map, as a
-    CPU implementation would."""
+    """Carves like Carver, but passes 4 and 5 run on the CPU. Keeps a CPU copy of each body's
+    maps, as a CPU implementation would."""
 
     def __init__(self, gl: GLContext, carver: Carver) -> None:
         self.gl = gl
         self.carver = carver
-        self._mirrors: dict[int, np.ndarray] = {}
+        self._mirrors: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
-    def mirror(self, body: CarveBody) -> np.ndarray:
-        """The CPU copy of a body's height map (read once, when the body is first carved)."""
+    def mirror(self, body: CarveBody) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CPU copies of a body's height, normal and chart mask (read once, at first use)."""
         key = id(body.maps)
         if key not in self._mirrors:
-            self._mirrors[key] = self.gl.read(body.maps.height)[:, :, 0].copy()
+            height = self.gl.read(body.maps.height)[:, :, 0].copy()
+            normal = self.gl.read(body.maps.normal).copy()
+            mask = self.gl.read(body.maps.mask)[:, :, 0] >= 128
+            self._mirrors[key] = (height, normal, mask)
         return self._mirrors[key]
 
     def carve(
@@ -43,113 +66,282 @@ class CpuReference:
         for body in (target, tool):
             self.mirror(body)
         jobs = self.carver.measure_passes(target, tool, contact, target_depth, tool_depth)
-        results = [
-            self._heights(index, job) for index, job in enumerate(jobs)
-        ]  # read everything first
-        for job, result in zip(jobs, results, strict=True):
-            if result is not None:
-                self._apply(job.target, *result)
+        # Both directions read the heights from before the hit: read everything first.
+        results = [self._new_heights(index, job) for index, job in enumerate(jobs)]
+        for job, (rows, cols, heights) in zip(jobs, results, strict=True):
+            self._apply(job, rows, cols, heights)
 
-    def _heights(self, index: int, job):
-        """Read back passes 1-3 and compute (texel rows, cols, new heights)."""
+    # -- pass 4 --------------------------------------------------------------------------------
+    def _new_heights(self, index: int, job: CarveJob) -> tuple[np.ndarray, ...]:
         slot = self.carver.slot(index)
-        w, h = job.camera.resolution
-        view = (0, 0, w, h)
-        address = self.gl.read_region(slot.address_fbo, view, 4, 0)  # (u, v, height, cos)
-        depth_a = self.gl.read_region(slot.address_fbo, view, 1, 1)[:, :, 0]  # metres
-        window = self.gl.read_region(slot.address_fbo, view, 1, -1)[:, :, 0]  # depth buffer
-        near, far = job.camera.depth_range
-        # After the peel the depth buffer holds the tool's depth where it reached past the target.
-        depth_b = near + window.astype(np.float64) * (far - near)
-        penetration = depth_b - depth_a
-        # Where the tool did not pass, the buffer still holds the target's own (quantised) depth.
-        hit = (address[:, :, 0] >= 0.0) & (penetration > PENETRATION_FLOOR)
-        if not hit.any():
-            return None
-        size = np.array(job.target.maps.size)
-        cos = np.maximum(address[:, :, 3], MIN_COS)
-        grid = np.where(hit, address[:, :, 2] - penetration / cos, np.nan)
-        grid = np.maximum(grid, -job.target.maps.max_dent_depth)
-        uv_grid = address[:, :, :2].astype(np.float64)
-        # As the scatter pass: flat charts are sampled at texel centres already (aligned camera).
-        curved = job.target.gpu_mesh.mesh.curved
-        centred = to_texel_centres(uv_grid, grid, size) if curved else grid
-        uv = uv_grid[hit]
-        cols = np.clip(np.floor(uv[:, 0] * size[0]).astype(int), 0, size[0] - 1)
-        rows = np.clip(np.floor(uv[:, 1] * size[1]).astype(int), 0, size[1] - 1)
-        new = np.maximum(centred[hit], -job.target.maps.max_dent_depth)
-        return rows, cols, new.astype(np.float32)
+        cam = job.camera
+        view = (0, 0, *cam.resolution)
+        address = self.gl.read_region(slot.address_fbo, view, 4, 0).astype(np.float64)
+        tool = self.gl.read_region(slot.peel_fbo, view, 1, 0)[:, :, 0].astype(np.float64)
+        _, _, mask = self.mirror(job.target)
+        texels = footprint_texels(job.target, cam, cam.slab, mask)
+        maps = job.target.maps
+        height = gather(texels, cam, address, tool, maps.max_height, maps.max_dent_depth)
+        keep = np.isfinite(height)
+        return texels.rows[keep], texels.cols[keep], height[keep]
 
-    def _apply(self, body: CarveBody, rows, cols, new) -> None:
-        maps = body.maps
-        mirror = self.mirror(body)
-        r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
-        region = mirror[r0:r1, c0:c1]
-        np.minimum.at(region, (rows - r0, cols - c0), new)
-        maps.height.write(
-            np.ascontiguousarray(region).tobytes(), viewport=(c0, r0, c1 - c0, r1 - r0)
-        )
-        # Normals of the changed rectangle grown by one texel, from central differences in metres.
-        H, W = mirror.shape
-        R0, R1, C0, C1 = max(r0 - 1, 0), min(r1 + 1, H), max(c0 - 1, 0), min(c1 + 1, W)
-        normals = normal_rgba(mirror, (R0, R1, C0, C1), maps.texel_metres)
-        maps.normal.write(normals.tobytes(), viewport=(C0, R0, C1 - C0, R1 - R0))
+    def _apply(self, job: CarveJob, rows, cols, heights) -> None:
+        body, cam = job.target, job.camera
+        height, normal, mask = self.mirror(body)
+        if len(rows):
+            np.minimum.at(height, (rows, cols), heights.astype(np.float32))
+            r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
+            region = np.ascontiguousarray(height[r0:r1, c0:c1])
+            body.maps.height.write(region.tobytes(), viewport=(c0, r0, c1 - c0, r1 - r0))
+        grow = 2.0 * cam.texel_metres
+        ring = footprint_texels(body, cam, (cam.slab[0] - grow, cam.slab[1] + grow), mask)
+        if not len(ring.rows):
+            return
+        normal[ring.rows, ring.cols] = normal_rgba(height, mask, ring)
+        r0, r1 = ring.rows.min(), ring.rows.max() + 1
+        c0, c1 = ring.cols.min(), ring.cols.max() + 1
+        region = np.ascontiguousarray(normal[r0:r1, c0:c1])
+        body.maps.normal.write(region.tobytes(), viewport=(c0, r0, c1 - c0, r1 - r0))
 
 
-def to_texel_centres(uv: np.ndarray, height: np.ndarray, size: np.ndarray) -> np.ndarray:
-    """Move each camera pixel's new height (NaN: none) to the centre of its texel along the local
-    gradient d h / d uv from neighbouring pixels, as footprint.vert does."""
-    rows, cols = height.shape
-    valid = np.isfinite(height)
-    sample = np.dstack([uv, height])
+def gather(
+    t: Texels,
+    cam: CollisionCamera,
+    address: np.ndarray,
+    tool: np.ndarray,
+    ceiling: float,
+    max_dent_depth: float,
+) -> Array:
+    """Pass 4 for every texel of `t`: the new height (metres), NaN where nothing changes."""
+    forward = np.asarray(cam.forward, dtype=np.float64)
+    cos_view = -(t.normal @ forward)
+    rel = t.world - cam.eye
+    depth = rel @ forward
+    cols, rows = cam.resolution
+    px = (rel @ cam.right / cam.half_extent[0] * 0.5 + 0.5) * cols - 0.5
+    py = (rel @ cam.up / cam.half_extent[1] * 0.5 + 0.5) * rows - 0.5
+    ix, iy = np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
+    seen = (cos_view > 0) & (ix >= 0) & (iy >= 0) & (ix < cols) & (iy < rows)
+    ixc, iyc = np.clip(ix, 0, cols - 1), np.clip(iy, 0, rows - 1)
+    addr = address[iyc, ixc]
+    seen &= addr[:, 0] > NO_SURFACE
+    slope = np.sqrt(np.maximum(1.0 - cos_view**2, 0.0)) / np.maximum(cos_view, MIN_COS)
+    diagonal = float(np.hypot(*cam.pixel_metres))
+    seen &= np.abs(addr[:, 2] - depth) <= diagonal * (1.0 + slope)
 
-    def neighbour(dy: int, dx: int) -> tuple[np.ndarray, np.ndarray]:
-        shifted = np.full_like(sample, np.nan)
-        ok = np.zeros_like(valid)
-        ys = slice(max(dy, 0), rows + min(dy, 0))
-        yd = slice(max(-dy, 0), rows + min(-dy, 0))
-        xs = slice(max(dx, 0), cols + min(dx, 0))
-        xd = slice(max(-dx, 0), cols + min(-dx, 0))
-        shifted[yd, xd] = sample[ys, xs]
-        ok[yd, xd] = valid[ys, xs]
-        same_chart = np.all(np.abs(shifted[..., :2] - uv) * size <= 2.0, axis=-1)
-        return shifted, ok & same_chart & valid
+    def sample(x, y):
+        ok = (x >= 0) & (y >= 0) & (x < cols) & (y < rows)
+        value = tool[np.clip(y, 0, rows - 1), np.clip(x, 0, cols - 1)]
+        ok &= value < 0.5 * NO_CHANGE
+        return value, ok
 
-    def axis(dy: int, dx: int) -> tuple[np.ndarray, np.ndarray]:
-        hi, has_hi = neighbour(dy, dx)
-        lo, has_lo = neighbour(-dy, -dx)
-        both = has_hi & has_lo
-        diff = np.where(
-            both[..., None], (hi - lo) * 0.5, np.where(has_hi[..., None], hi - sample, sample - lo)
-        )
-        return diff, has_hi | has_lo
-
-    dx, ok_x = axis(0, 1)
-    dy, ok_y = axis(1, 0)
-    det = dx[..., 0] * dy[..., 1] - dy[..., 0] * dx[..., 1]
-    usable = valid & ok_x & ok_y & (np.abs(det) >= 1e-12)
-    safe = np.where(usable, det, 1.0)
-    # grad = inverse(J)^T (dh_x, dh_y), J = [dx.uv | dy.uv] (columns).
-    grad_u = (dy[..., 1] * dx[..., 2] - dx[..., 1] * dy[..., 2]) / safe
-    grad_v = (-dy[..., 0] * dx[..., 2] + dx[..., 0] * dy[..., 2]) / safe
-    texel = np.clip(np.floor(uv * size), 0, size - 1)
-    offset = (texel + 0.5) / size - uv
-    at_centre = np.all(np.abs(offset) * size < 1e-3, axis=-1)
-    moved = height + grad_u * offset[..., 0] + grad_v * offset[..., 1]
-    return np.where(usable & ~at_centre, moved, height)
+    bx, by = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
+    fx, fy = px - bx, py - by
+    d00, o00 = sample(bx, by)
+    d10, o10 = sample(bx + 1, by)
+    d01, o01 = sample(bx, by + 1)
+    d11, o11 = sample(bx + 1, by + 1)
+    bilinear = (d00 * (1 - fx) + d10 * fx) * (1 - fy) + (d01 * (1 - fx) + d11 * fx) * fy
+    nearest, has_nearest = sample(ix, iy)
+    all4 = o00 & o10 & o01 & o11
+    tool_depth = np.where(all4, bilinear, nearest)
+    seen &= all4 | has_nearest
+    with np.errstate(invalid="ignore", over="ignore"):
+        h = -(tool_depth - depth) / np.maximum(cos_view, MIN_COS)
+    seen &= h < ceiling
+    return np.where(seen, np.maximum(h, -max_dent_depth), np.nan)
 
 
-def normal_rgba(height: np.ndarray, box: tuple[int, int, int, int], texel_metres) -> np.ndarray:
-    """Tangent-space normals of height[r0:r1, c0:c1] as RGBA8 (one-sided at the map's edges)."""
-    r0, r1, c0, c1 = box
-    H, W = height.shape
-    rows = np.arange(r0, r1)[:, None]
-    cols = np.arange(c0, c1)[None, :]
-    lo_c, hi_c = np.maximum(cols - 1, 0), np.minimum(cols + 1, W - 1)
-    lo_r, hi_r = np.maximum(rows - 1, 0), np.minimum(rows + 1, H - 1)
-    du = (height[rows, hi_c] - height[rows, lo_c]) / ((hi_c - lo_c) * texel_metres[0])
-    dv = (height[hi_r, cols] - height[lo_r, cols]) / ((hi_r - lo_r) * texel_metres[1])
-    n = np.stack([-du, -dv, np.ones_like(du)], axis=-1)
-    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+# -- texel enumeration (what passes 4 and 5 rasterise) --------------------------------------------
+def footprint_texels(
+    body: CarveBody, cam: CollisionCamera, slab: tuple[float, float], mask: np.ndarray
+) -> Texels:
+    """The texels passes 4 and 5 draw for `body` inside `cam`'s rectangle and `slab` (view
+    depth): chart texels whose centre lies in one of the triangles `cam.target_texels`, and
+    gutter texels that overlap a chart-border triangle (with the triangle's nearest point)."""
+    mesh = body.gpu_mesh.mesh
+    model = np.asarray(body.model, dtype=np.float64)
+    size = np.array(body.maps.size, dtype=np.float64)  # (columns, rows)
+    which = cam.target_texels
+    border = mesh.chart_border()[which]
+    tri = mesh.indices[which].astype(np.int64)
+    uv = mesh.uvs.astype(np.float64)[tri] * size  # (k, 3, 2) texel units
+    world = mesh.positions.astype(np.float64)[tri] @ model[:3, :3].T + model[:3, 3]
+    normal_matrix = np.linalg.inv(model[:3, :3]).T
+    vnormal = mesh.normals.astype(np.float64)[tri] @ normal_matrix.T
+    lo = np.floor(uv.min(axis=1)).astype(np.int64) - 1
+    hi = np.ceil(uv.max(axis=1)).astype(np.int64) + 1
+    lo = np.maximum(lo, 0)
+    hi = np.minimum(hi, size.astype(np.int64) - 1)
+    lo, hi = _clip_to_camera(uv, world, cam, lo, hi)
+    width, height = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0), np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
+    counts = width * height
+    owner = np.repeat(np.arange(len(tri)), counts)
+    k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    cols = lo[owner, 0] + k % width[owner]
+    rows = lo[owner, 1] + k // width[owner]
+    centre = np.stack([cols + 0.5, rows + 0.5], axis=1)
+    bary, dist = _nearest_barycentric(centre, uv[owner])
+    in_chart = mask[rows, cols]
+    inside = dist == 0.0
+    keep = np.where(in_chart, inside, border[owner] & (dist <= GUTTER_REACH_TEXELS))
+    owner, rows, cols, bary, gutter = (
+        owner[keep],
+        rows[keep],
+        cols[keep],
+        bary[keep],
+        ~in_chart[keep],
+    )
+    point = np.einsum("kj,kjc->kc", bary, world[owner])
+    n = np.einsum("kj,kjc->kc", bary, vnormal[owner])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    # Clip distances of texel.vert / texel.geom: inside the rectangle and the slab.
+    rel = point - cam.eye
+    inside_cam = (
+        (np.abs(rel @ cam.right) <= cam.half_extent[0])
+        & (np.abs(rel @ cam.up) <= cam.half_extent[1])
+        & (rel @ cam.forward >= slab[0])
+        & (rel @ cam.forward <= slab[1])
+    )
+    per_u, per_v = _texel_steps(uv, world)
+    near_uv = np.einsum("kj,kjc->kc", bary, uv[owner])
+    src = np.floor(near_uv).astype(np.int64)
+    src_cols, src_rows = _chart_source(src[:, 0], src[:, 1], cols, rows, near_uv, mask, gutter)
+    sel = inside_cam & (src_cols >= 0)
+    return Texels(
+        rows[sel],
+        cols[sel],
+        point[sel],
+        n[sel],
+        per_u[owner][sel],
+        per_v[owner][sel],
+        src_rows[sel],
+        src_cols[sel],
+        gutter[sel],
+    )
+
+
+def _clip_to_camera(uv, world, cam: CollisionCamera, lo, hi):
+    """Narrow each triangle's texel box to the preimage of the camera rectangle (affine per
+    triangle); edge-on triangles keep their box."""
+    rel = world - cam.eye
+    x, y = rel @ cam.right, rel @ cam.up  # (k, 3)
+    e_uv = np.stack([uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]], axis=2)  # (k, 2, 2) columns
+    e_xy = np.stack(
+        [
+            np.stack([x[:, 1] - x[:, 0], y[:, 1] - y[:, 0]], 1),
+            np.stack([x[:, 2] - x[:, 0], y[:, 2] - y[:, 0]], 1),
+        ],
+        axis=2,
+    )
+    det = np.linalg.det(e_xy)
+    ok = np.abs(det) > 1e-18
+    inv = np.linalg.inv(np.where(ok[:, None, None], e_xy, np.eye(2)))
+    to_uv = e_uv @ inv  # uv offset per xy offset
+    hx, hy = cam.half_extent
+    corners = np.array([[-hx, -hy], [hx, -hy], [-hx, hy], [hx, hy]])
+    base = np.stack([x[:, 0], y[:, 0]], 1)
+    pre = np.einsum("kab,kcb->kca", to_uv, corners[None] - base[:, None]) + uv[:, None, 0]
+    plo = np.floor(pre.min(axis=1)).astype(np.int64) - 1
+    phi = np.ceil(pre.max(axis=1)).astype(np.int64) + 1
+    lo = np.where(ok[:, None], np.maximum(lo, plo), lo)
+    hi = np.where(ok[:, None], np.minimum(hi, phi), hi)
+    return lo, hi
+
+
+def _nearest_barycentric(q: Array, tri: Array) -> tuple[Array, Array]:
+    """Barycentric weights of the point of each triangle (k, 3, 2) nearest to q (k, 2), and the
+    distance to it (0 inside), as texel.glsl computes them."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    r = q - tri[:, 0]
+    den = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    b1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / den
+    b2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / den
+    bary = np.stack([1 - b1 - b2, b1, b2], axis=1)
+    dist = np.zeros(len(q))
+    outside = (bary < 0).any(axis=1)
+    if outside.any():
+        best = np.full(outside.sum(), np.inf)
+        best_b = np.zeros((outside.sum(), 3))
+        t_o, q_o = tri[outside], q[outside]
+        for i in range(3):
+            j = (i + 1) % 3
+            edge = t_o[:, j] - t_o[:, i]
+            f = np.clip(((q_o - t_o[:, i]) * edge).sum(1) / (edge * edge).sum(1), 0.0, 1.0)
+            d = np.linalg.norm(q_o - (t_o[:, i] + f[:, None] * edge), axis=1)
+            better = d < best
+            best = np.where(better, d, best)
+            b = np.zeros_like(best_b)
+            b[:, i], b[:, j] = 1 - f, f
+            best_b = np.where(better[:, None], b, best_b)
+        bary[outside], dist[outside] = best_b, best
+    return bary, dist
+
+
+def _texel_steps(uv: Array, world: Array) -> tuple[Array, Array]:
+    """Per triangle, the world offset of one texel step along +u and along +v (metres)."""
+    d1, d2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    e1, e2 = world[:, 1] - world[:, 0], world[:, 2] - world[:, 0]
+    det = (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])[:, None]
+    return (e1 * d2[:, 1:] - e2 * d1[:, 1:]) / det, (e2 * d1[:, :1] - e1 * d2[:, :1]) / det
+
+
+def _chart_source(src_c, src_r, cols, rows, near_uv, mask, gutter):
+    """The chart texel each texel takes its normal from: itself in a chart; for a gutter texel
+    the texel of its nearest triangle point, else the chart neighbour nearest to that point
+    (-1: none), as normals.frag."""
+    h, w = mask.shape
+    src_c, src_r = np.where(gutter, src_c, cols), np.where(gutter, src_r, rows)
+
+    def in_chart(c, r):
+        ok = (c >= 0) & (r >= 0) & (c < w) & (r < h)
+        return ok & mask[np.clip(r, 0, h - 1), np.clip(c, 0, w - 1)]
+
+    fix = gutter & ~in_chart(src_c, src_r)
+    if fix.any():
+        near = np.floor(near_uv[fix]) + 0.5  # the centre of the texel holding the nearest point
+        best = np.full(fix.sum(), np.inf)
+        bc, br = np.full(fix.sum(), -1), np.full(fix.sum(), -1)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                qc, qr = cols[fix] + dx, rows[fix] + dy
+                d = np.hypot(qc + 0.5 - near[:, 0], qr + 0.5 - near[:, 1])
+                better = in_chart(qc, qr) & (d < best)
+                best = np.where(better, d, best)
+                bc, br = np.where(better, qc, bc), np.where(better, qr, br)
+        src_c, src_r = src_c.copy(), src_r.copy()
+        src_c[fix], src_r[fix] = bc, br
+    return src_c, src_r
+
+
+# -- pass 5 --------------------------------------------------------------------------------------
+def normal_rgba(height: np.ndarray, mask: np.ndarray, t: Texels) -> np.ndarray:
+    """Tangent-space normals (RGBA8) of texels `t` from central differences of `height`,
+    one-sided at chart borders, through each texel's metric (as normals.frag)."""
+    h, w = height.shape
+    r, c = t.source_rows, t.source_cols
+
+    def difference(dr: int, dc: int) -> Array:
+        def ok(rr, cc):
+            inside = (rr >= 0) & (cc >= 0) & (rr < h) & (cc < w)
+            return inside & mask[np.clip(rr, 0, h - 1), np.clip(cc, 0, w - 1)]
+
+        lo_r, lo_c, hi_r, hi_c = r - dr, c - dc, r + dr, c + dc
+        has_lo, has_hi = ok(lo_r, lo_c), ok(hi_r, hi_c)
+        lo_r, lo_c = np.where(has_lo, lo_r, r), np.where(has_lo, lo_c, c)
+        hi_r, hi_c = np.where(has_hi, hi_r, r), np.where(has_hi, hi_c, c)
+        span = has_lo.astype(float) + has_hi
+        diff = height[hi_r, hi_c].astype(np.float64) - height[lo_r, lo_c]
+        return np.where(span >= 1, diff / np.maximum(span, 1), 0.0)
+
+    du, dv = difference(0, 1), difference(1, 0)
+    a = np.linalg.norm(t.per_u, axis=1)
+    tangent = t.per_u / a[:, None]
+    b = (t.per_v * tangent).sum(1)
+    cc = np.linalg.norm(t.per_v - b[:, None] * tangent, axis=1)
+    grad_t = du / a
+    grad_b = (dv - grad_t * b) / cc
+    n = np.stack([-grad_t, -grad_b, np.ones_like(du)], axis=1)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
     rgb = np.round((n * 0.5 + 0.5) * 255.0)
-    return np.concatenate([rgb, np.full(rgb.shape[:2] + (1,), 255.0)], axis=-1).astype(np.uint8)
+    return np.concatenate([rgb, np.full((len(n), 1), 255.0)], axis=1).astype(np.uint8)

@@ -46,26 +46,47 @@ class GpuMesh:
         data = np.hstack([mesh.positions, mesh.normals, mesh.uvs, mesh.tangents]).astype("f4")
         self.vbo = ctx.buffer(data.tobytes())
         self.ibo = ctx.buffer(mesh.indices.astype("u4").tobytes())
-        self._vaos: dict[int, moderngl.VertexArray] = {}
+        self._vaos: dict[tuple[int, str], moderngl.VertexArray] = {}
+        #: Index buffers of triangle subsets (one per use, rewritten per hit; see `draw`).
+        self._subsets: dict[str, moderngl.Buffer] = {}
         self._ctx = ctx
 
     _LAYOUT = "3f 3f 2f 4f"
     _NAMES = ("in_position", "in_normal", "in_uv", "in_tangent")
 
-    def vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
-        """A vertex array binding the attributes `prog` uses (cached per program)."""
-        key = prog.glo
+    def vao(self, prog: moderngl.Program, subset: str = "") -> moderngl.VertexArray:
+        """A vertex array binding the attributes `prog` uses (cached per program), over all
+        triangles or over the index buffer of `subset`."""
+        key = (prog.glo, subset)
         if key not in self._vaos:
             used = [n for n in self._NAMES if n in prog]
             fmt = " ".join(
                 f if n in used else f"{f[0]}x4"
                 for f, n in zip(self._LAYOUT.split(), self._NAMES, strict=True)
             )
-            self._vaos[key] = self._ctx.vertex_array(prog, [(self.vbo, fmt, *used)], self.ibo)
+            ibo = self._subsets[subset] if subset else self.ibo
+            self._vaos[key] = self._ctx.vertex_array(prog, [(self.vbo, fmt, *used)], ibo)
         return self._vaos[key]
 
+    def draw(self, prog: moderngl.Program, triangles: np.ndarray | None, subset: str) -> None:
+        """Draw triangles `triangles` (indices into the mesh's triangles; None: all) with `prog`
+        through the index buffer named `subset`, orphaned and refilled (GPU upload of 12 bytes a
+        triangle, no read)."""
+        if triangles is None:
+            self.vao(prog).render(moderngl.TRIANGLES)
+            return
+        if len(triangles) == 0:
+            return
+        if subset not in self._subsets:
+            self._subsets[subset] = self._ctx.buffer(reserve=self.ibo.size, dynamic=True)
+        data = self.mesh.indices[triangles].astype("u4").tobytes()
+        buffer = self._subsets[subset]
+        buffer.orphan()
+        buffer.write(data)
+        self.vao(prog, subset).render(moderngl.TRIANGLES, vertices=3 * len(triangles))
+
     def release(self) -> None:
-        release(*self._vaos.values(), self.vbo, self.ibo)
+        release(*self._vaos.values(), *self._subsets.values(), self.vbo, self.ibo)
 
 
 @dataclass
@@ -81,6 +102,9 @@ class SurfaceMaps:
     max_dent_depth: float
     height_fbo: moderngl.Framebuffer
     normal_fbo: moderngl.Framebuffer
+    #: No height in the map is above this, metres (>= 0; bumps of a start map stand proud). Carves
+    #: only lower heights, so it changes only when a map is loaded.
+    max_height: float = 0.0
 
     @property
     def size(self) -> tuple[int, int]:
@@ -114,6 +138,7 @@ def create_maps(
         height.write(np.maximum(heights, -max_dent_depth).tobytes())
     else:
         height.write(np.zeros((size, size), np.float32).tobytes())
+    max_height = 0.0 if initial_height is None else max(float(heights.max()), 0.0)
     normal = ctx.texture((size, size), 4, dtype="f1")
     normal.filter = (moderngl.LINEAR, moderngl.LINEAR)
     normal.repeat_x = normal.repeat_y = False
@@ -135,28 +160,20 @@ def create_maps(
         max_dent_depth=max_dent_depth,
         height_fbo=ctx.framebuffer([height]),
         normal_fbo=ctx.framebuffer([normal]),
+        max_height=max_height,
     )
-    rebuild_all_normals(gl, maps)
     release(mask_fbo)
+    rebuild_all_normals(gl, gpu_mesh, maps)
     return maps
 
 
-def rebuild_all_normals(gl: GLContext, maps: SurfaceMaps) -> None:
-    """Normals of the whole map (at creation and import only; a hit rebuilds its footprint)."""
-    ctx = gl.ctx
-    prog = program(gl.cache, ctx, "util/fullscreen.vert", "carve/normals.frag")
-    maps.height.use(0)
-    maps.mask.use(1)
-    prog["u_height"] = 0
-    prog["u_mask"] = 1
-    prog["u_texel_metres"] = maps.texel_metres
-    prog["u_whole_map"] = True
-    maps.normal_fbo.use()
-    ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-    key = "vao:fullscreen"
-    if key not in gl.cache:
-        gl.cache[key] = ctx.vertex_array(prog, [])
-    gl.cache[key].render(moderngl.TRIANGLES, vertices=3)
+def rebuild_all_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None:
+    """Normals of the whole map through pass 5 (at creation and import only; a hit rebuilds its
+    footprint). Texels outside every chart and its gutter stay flat."""
+    from dentdemo.carve.texel_passes import rebuild_normals
+
+    maps.normal_fbo.clear(0.5, 0.5, 1.0, 1.0)  # the flat tangent-space normal (0, 0, 1)
+    rebuild_normals(gl, gpu_mesh, maps, np.eye(4), None)
 
 
 def load_height_png(path: Path, size: int, amplitude: float) -> np.ndarray:
@@ -203,4 +220,5 @@ def import_maps(gl: GLContext, maps: SurfaceMaps, path: Path) -> None:
     if height.dtype != np.float32 or not np.isfinite(height).all():
         raise DentdemoError(f"{path}: height must be finite float32")
     maps.height.write(np.ascontiguousarray(height).tobytes())
+    maps.max_height = max(float(height.max()), 0.0)
     maps.normal.write(np.ascontiguousarray(normal, dtype=np.uint8).tobytes())

@@ -169,4 +169,7 @@ def set_uniform(prog: moderngl.Program, name: str, value: object) -> None:
     """Set a uniform if the program has it: compilers drop uniforms that a variant or a pass does
     not use (the normal pass never reads the scatter's height, for one)."""
     if name in prog:
-        prog[name] = value
+        if isinstance(value, bytes):
+            prog[name].write(value)  # matrices, column-major float32
+        else:
+            prog[name] = value

@@ -8,6 +8,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 F32 = NDArray[np.float32]
+#: Triangles per cluster of `Mesh.clusters`.
+CLUSTER_SIZE = 32
 
 
 @dataclass(frozen=True)
@@ -56,6 +58,55 @@ class Mesh:
         i = self.indices
         return p[i[:, 0]], p[i[:, 1]], p[i[:, 2]]
 
+    def corner_array(self) -> NDArray[np.float64]:
+        """(m, 3, 3) float64 triangle corners, local metres (cached)."""
+        a, b, c = self._bounds()[:3]
+        cached = getattr(self, "_corner_cache", None)
+        if cached is None or cached.shape[0] != len(a):
+            cached = np.stack([a, b, c], axis=1)
+            self._corner_cache = cached
+        return cached
+
+    def triangle_spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Each triangle's bounding sphere: centres (m, 3) and radii (m,), local metres (cached)."""
+        _, _, _, centre, radius = self._bounds()
+        return centre, radius
+
+    def chart_border(self) -> NDArray[np.bool_]:
+        """(m,) True for triangles with an edge on a UV chart's border (an edge no other triangle
+        shares: seams split vertices, so seams count). Only these touch gutter texels. Cached."""
+        cached = getattr(self, "_border_cache", None)
+        if cached is not None and len(cached) == len(self.indices):
+            return cached
+        tri = self.indices.astype(np.int64)
+        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        _, inverse, counts = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
+        single = (counts[inverse.ravel()] == 1).reshape(3, -1)
+        cached = single.any(axis=0)
+        self._border_cache = cached
+        return cached
+
+    def clusters(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+        """Spatially coherent groups of CLUSTER_SIZE triangles (cached): bounding-sphere centres
+        (k, 3) and radii (k,), local metres, and members (k, CLUSTER_SIZE) as triangle indices,
+        -1 where the last group is short. Queries test groups first, then their triangles."""
+        cached = getattr(self, "_cluster_cache", None)
+        if cached is not None and cached[3] == len(self.indices):
+            return cached[:3]
+        centre, radius = self.triangle_spheres()
+        order = _morton_order(centre)
+        count = -(-len(order) // CLUSTER_SIZE)
+        members = np.full(count * CLUSTER_SIZE, -1, dtype=np.int64)
+        members[: len(order)] = order
+        members = members.reshape(count, CLUSTER_SIZE)
+        valid = members >= 0
+        safe = np.where(valid, members, members[:, :1])
+        group_centre = centre[safe].mean(axis=1)
+        reach = np.linalg.norm(centre[safe] - group_centre[:, None], axis=2) + radius[safe]
+        group_radius = np.where(valid, reach, 0.0).max(axis=1)
+        self._cluster_cache = (group_centre, group_radius, members, len(self.indices))
+        return group_centre, group_radius, members
+
     def surface_area(self) -> float:
         a, b, c = self.triangle_corners()
         return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
@@ -84,14 +135,22 @@ class Mesh:
         """The surface point nearest to `point` (local metres), with its uv and tangent frame."""
         p = np.asarray(point, dtype=np.float64)
         a, b, c, centre, radius = self._bounds()
-        # Only triangles whose bounding sphere may hold the nearest point need the exact test.
-        to_centre = np.sqrt(((centre - p) ** 2).sum(1))
-        candidates = np.nonzero(to_centre - radius <= (to_centre + radius).min())[0]
+        # Only clusters, then triangles, whose bounding sphere may hold the nearest point get the
+        # exact test.
+        group_centre, group_radius, members = self.clusters()
+        to_group = np.sqrt(((group_centre - p) ** 2).sum(1))
+        groups = to_group - group_radius <= (to_group + group_radius).min()
+        candidates = members[groups].ravel()
+        candidates = candidates[candidates >= 0]
+        to_centre = np.sqrt(((centre[candidates] - p) ** 2).sum(1))
+        candidates = candidates[
+            to_centre - radius[candidates] <= (to_centre + radius[candidates]).min()
+        ]
         closest, bary = _closest_on_triangles(p, a[candidates], b[candidates], c[candidates])
         dist = np.linalg.norm(closest - p, axis=1)
         best = int(np.argmin(dist))
         k = int(candidates[best])
-        closest, bary, dist = closest[best : best + 1], bary[best : best + 1], dist[best : best + 1]
+        bary, dist = bary[best : best + 1], dist[best : best + 1]
         a, b, c = a[k : k + 1], b[k : k + 1], c[k : k + 1]
         uv = (self.uvs.astype(np.float64)[self.indices[k]] * bary[0][:, None]).sum(axis=0)
         dpdu, dpdv, _ = _triangle_derivatives(self, np.array([k]))
@@ -115,6 +174,17 @@ class Mesh:
         vert_n = self.normals.astype(np.float64)[self.indices].sum(axis=1)
         flip = (face_n * vert_n).sum(axis=1) < 0
         self.indices[flip] = self.indices[flip][:, ::-1]
+
+
+def _morton_order(points: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Indices that sort points along a Z-order (Morton) curve of 10 bits per axis."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    cells = ((points - lo) / np.maximum(hi - lo, 1e-30) * 1023).astype(np.int64)
+    code = np.zeros(len(points), dtype=np.int64)
+    for bit in range(10):
+        for axis in range(3):
+            code |= ((cells[:, axis] >> bit) & 1) << (3 * bit + axis)
+    return np.argsort(code, kind="stable")
 
 
 def _triangle_derivatives(

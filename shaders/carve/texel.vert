@@ -1,0 +1,42 @@
+#version 330 core
+// Passes 4 and 5: the target's triangles drawn at their texture coordinates, so that every
+// fragment is one texel of the surface map (row 0 is v = 0). GUTTER 0 draws the triangles as they
+// are, clipped to the footprint here: each texel centre inside a chart is covered exactly once.
+// GUTTER 1 hands them to texel.geom, which draws the gutter texels around the chart borders.
+#include "camera.glsl"
+
+#ifndef GUTTER
+#define GUTTER 0
+#endif
+
+uniform mat4 u_model;          // world from local, metres
+uniform mat3 u_normal_matrix;  // world from local, for normals
+
+in vec3 in_position;  // local metres
+in vec3 in_normal;    // local, unit
+in vec2 in_uv;        // the body's surface-map address
+
+#if GUTTER
+out vec3 g_world;     // world metres
+out vec3 g_normal;    // world
+out vec2 g_uv;
+#else
+#include "clip.glsl"
+out vec3 v_world;     // world metres
+out vec3 v_normal;    // world
+#endif
+
+void main() {
+    vec3 world = (u_model * vec4(in_position, 1.0)).xyz;
+    vec3 normal = u_normal_matrix * in_normal;
+#if GUTTER
+    g_world = world;
+    g_normal = normal;
+    g_uv = in_uv;
+#else
+    v_world = world;
+    v_normal = normal;
+    clip_to_footprint(world);
+#endif
+    gl_Position = vec4(in_uv * 2.0 - 1.0, 0.0, 1.0);
+}

@@ -1,0 +1,26 @@
+"""Constants shared by the carve's Python code and its shaders, defined once here and injected into
+every carve program as `#define`s (see `shader_defines`)."""
+
+from __future__ import annotations
+
+#: Value of a collision-camera pixel the tool's back faces did not reach (pass 3 clear), metres.
+NO_CHANGE = 1.0e30
+#: Grazing clamp: the depth-to-height stretch 1/cos(normal, press direction) is capped at 1/MIN_COS.
+MIN_COS = 0.2
+#: A gutter texel (outside every chart) takes a value when its centre lies within this many texels
+#: of a triangle in texture space: half a texel's diagonal, i.e. the texel overlaps the triangle.
+GUTTER_REACH_TEXELS = 0.7072
+#: Address-map clear value of u: no target surface at that camera pixel.
+NO_SURFACE = -1.0
+
+
+def shader_defines(**extra: object) -> dict[str, object]:
+    """The carve constants as GLSL `#define`s (floats written so GLSL parses them as floats)."""
+    defines: dict[str, object] = {
+        "NO_CHANGE": f"{NO_CHANGE:.1e}",
+        "MIN_COS": repr(float(MIN_COS)),
+        "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),
+        "NO_SURFACE": repr(float(NO_SURFACE)),
+    }
+    defines.update(extra)
+    return defines

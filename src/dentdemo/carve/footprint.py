@@ -1,0 +1,211 @@
+"""Pass 1's bound on a press's overlap, from both bodies' triangles (CPU, numpy).
+
+Coordinates here are the collision camera's, in metres: x along `right`, y along `up`, s along the
+press direction (`forward`) from the contact point. At first touch the bodies are separated by the
+plane s = s_lo (the target's nearest point) and the advanced tool reaches s_hi: the overlap lies in
+the slab s_lo <= s <= s_hi of both, widened by the bumps the maps hold. The camera's rectangle is
+the intersection of the projections of what of each body lies in its slab. Per-triangle clipping
+makes it tight for any mesh and conservative by construction (a triangle's extent over a slab is
+that of its clipped polygon, whose corners are its vertices inside the slab and its edges'
+crossings of the slab's planes). Bounding spheres of the triangles only pick which triangles get
+that exact test, so a hit's CPU work follows the triangles near the footprint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.mesh.mesh import Mesh
+
+Array = NDArray[np.float64]
+Indices = NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class Rect:
+    """An axis-aligned rectangle in camera x, y (metres)."""
+
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+
+    def intersect(self, other: Rect) -> Rect | None:
+        r = Rect(
+            max(self.x0, other.x0),
+            min(self.x1, other.x1),
+            max(self.y0, other.y0),
+            min(self.y1, other.y1),
+        )
+        return r if r.x0 <= r.x1 and r.y0 <= r.y1 else None
+
+    def grown(self, margin: float) -> Rect:
+        return Rect(self.x0 - margin, self.x1 + margin, self.y0 - margin, self.y1 + margin)
+
+
+@dataclass(frozen=True)
+class Overlap:
+    """Where a press can change a map: the rectangle and the slab of s (metres)."""
+
+    rect: Rect
+    #: s range that holds every target surface point the press can move.
+    slab: tuple[float, float]
+
+
+class Projected:
+    """A posed mesh's triangles in camera coordinates. Queries test the bounding spheres of
+    triangle clusters, then of the triangles in the clusters that pass, then exact corners for
+    the few triangles that need them: a hit's CPU work follows the triangles near the footprint."""
+
+    def __init__(self, mesh: Mesh, model: Array, origin: Array, axes: Array) -> None:
+        m = np.asarray(model, dtype=np.float64)
+        self._local_axes = axes @ m[:3, :3]  # row k: local vector whose dot gives camera axis k
+        self._offset = axes @ (m[:3, 3] - origin)
+        self._scale = float(np.linalg.norm(m[:3, :3], ord=2))
+        self._mesh = mesh
+        centre, radius, self._members = mesh.clusters()
+        self._cluster_centres = self._to_camera(centre)
+        self._cluster_radii = radius * self._scale
+
+    def _to_camera(self, local: Array) -> Array:
+        flat = local.reshape(-1, 3) @ self._local_axes.T
+        flat += self._offset
+        return flat.reshape(local.shape)
+
+    def corners(self, which: Indices) -> Array:
+        """(k, 3, 3) camera (x, y, s) of the corners of triangles `which`."""
+        return self._to_camera(self._mesh.corner_array()[which])
+
+    def spheres(self, which: Indices) -> tuple[Array, Array]:
+        """Camera-space bounding spheres (centres (k, 3), radii (k,)) of triangles `which`."""
+        centre, radius = self._mesh.triangle_spheres()
+        return self._to_camera(centre[which]), radius[which] * self._scale
+
+    def s_range(self) -> tuple[float, float]:
+        """Bounds of s over the whole mesh (from the cluster spheres)."""
+        c, r = self._cluster_centres[:, 2], self._cluster_radii
+        return float((c - r).min()), float((c + r).max())
+
+    def rect(self) -> Rect:
+        """Bounds of x, y over the whole mesh (from the cluster spheres)."""
+        return _sphere_rect(self._cluster_centres, self._cluster_radii)
+
+    def meeting(self, rect: Rect, slab: tuple[float, float] | None = None) -> Indices:
+        """Triangles whose bounding sphere meets `rect` (and the s range `slab`)."""
+        groups = _meets(self._cluster_centres, self._cluster_radii, rect, slab)
+        members = self._members[groups].ravel()
+        members = members[members >= 0]
+        centre, radius = self.spheres(members)
+        return members[_meets(centre, radius, rect, slab)]
+
+    def s_extreme(self, rect: Rect, lowest: bool) -> float | None:
+        """The exact lowest (or highest) s of the triangles whose spheres meet `rect`."""
+        c, r = self._cluster_centres[:, 2], self._cluster_radii
+        groups = _meets(self._cluster_centres, self._cluster_radii, rect, None)
+        if not groups.any():
+            return None
+        # Only groups (then triangles) whose sphere may hold the extreme need the exact test.
+        if lowest:
+            groups &= c - r <= (c + r)[groups].min()
+        else:
+            groups &= c + r >= (c - r)[groups].max()
+        members = self._members[groups].ravel()
+        which = members[members >= 0]
+        centre, radius = self.spheres(which)
+        which = which[_meets(centre, radius, rect, None)]
+        if len(which) == 0:
+            return None
+        s = self.corners(which)[..., 2]
+        return float(s.min()) if lowest else float(s.max())
+
+    def slab_part(self, rect: Rect, lo: float, hi: float) -> Rect | None:
+        """The x, y extent of the parts with lo <= s <= hi of the triangles meeting `rect`."""
+        which = self.meeting(rect, (lo, hi))
+        if len(which) == 0:
+            return None
+        return slab_rect(self.corners(which), lo, hi)
+
+
+def _sphere_rect(centre: Array, radius: Array) -> Rect:
+    return Rect(
+        float((centre[:, 0] - radius).min()),
+        float((centre[:, 0] + radius).max()),
+        float((centre[:, 1] - radius).min()),
+        float((centre[:, 1] + radius).max()),
+    )
+
+
+def _meets(
+    centre: Array, radius: Array, rect: Rect, slab: tuple[float, float] | None
+) -> NDArray[np.bool_]:
+    keep = (
+        (centre[:, 0] + radius >= rect.x0)
+        & (centre[:, 0] - radius <= rect.x1)
+        & (centre[:, 1] + radius >= rect.y0)
+        & (centre[:, 1] - radius <= rect.y1)
+    )
+    if slab is not None:
+        keep &= (centre[:, 2] + radius >= slab[0]) & (centre[:, 2] - radius <= slab[1])
+    return keep
+
+
+def slab_rect(tris: Array, lo: float, hi: float) -> Rect | None:
+    """The x, y extent of the parts of the triangles (k, 3, 3) with lo <= s <= hi (None: none)."""
+    s = tris[..., 2]
+    s_min, s_max = s.min(1), s.max(1)
+    whole = tris[(s_min >= lo) & (s_max <= hi)]  # inside the slab: their corners are the extent
+    cut = tris[(s_max >= lo) & (s_min <= hi) & ((s_min < lo) | (s_max > hi))]
+    xs: list[Array] = [whole[..., 0].ravel()]
+    ys: list[Array] = [whole[..., 1].ravel()]
+    if len(cut):
+        s = cut[..., 2]
+        inside = (s >= lo) & (s <= hi)
+        xs.append(cut[..., 0][inside])
+        ys.append(cut[..., 1][inside])
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            a, b = cut[:, i], cut[:, j]
+            span = b[:, 2] - a[:, 2]
+            flat = np.abs(span) <= 1e-300
+            safe = np.where(flat, 1.0, span)
+            for plane in (lo, hi):
+                f = (plane - a[:, 2]) / safe
+                crossing = ~flat & (f >= 0.0) & (f <= 1.0)
+                point = a[crossing] + f[crossing, None] * (b[crossing] - a[crossing])
+                xs.append(point[:, 0])
+                ys.append(point[:, 1])
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    if len(x) == 0:
+        return None
+    return Rect(float(x.min()), float(x.max()), float(y.min()), float(y.max()))
+
+
+def overlap(
+    target: Projected,
+    tool: Projected,
+    target_max_height: float = 0.0,
+    tool_max_height: float = 0.0,
+) -> Overlap | None:
+    """The bound of the overlap of `target` and the advanced `tool`. `*_max_height` is the highest
+    height each map holds (metres; > 0: bumps that stand proud of the mesh). None: they cannot
+    meet."""
+    near_tool, near_target = tool.rect(), target.rect()
+    s_lo = target.s_extreme(near_tool, lowest=True)  # the target's nearest point: first touch
+    s_hi = tool.s_extreme(near_target, lowest=False)  # how far the advanced tool reaches
+    if s_lo is None or s_hi is None:
+        return None
+    bumps = max(target_max_height, 0.0) + max(tool_max_height, 0.0)
+    if s_hi + bumps < s_lo:
+        return None
+    # A target point can move if its bumped point lies inside the bumped tool; a tool point can
+    # reach if its bumped point lies beyond the target's bumped surface.
+    target_rect = target.slab_part(near_tool, s_lo, s_hi + bumps)
+    tool_rect = tool.slab_part(near_target, s_lo - bumps, s_hi)
+    if target_rect is None or tool_rect is None:
+        return None
+    rect = target_rect.intersect(tool_rect)
+    if rect is None:
+        return None
+    return Overlap(rect, (s_lo, s_hi + bumps))

@@ -1,0 +1,107 @@
+"""Passes 4 and 5 draw a body's triangles in texture space (carve/texel.geom); this module builds
+those passes and holds pass 5, the normal rebuild, which map creation uses too."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.carve.camera import CollisionCamera
+from dentdemo.carve.constants import shader_defines
+from dentdemo.carve.passes import Pass, PassState
+from dentdemo.gl.context import GLContext
+from dentdemo.gl.shaders import program
+
+if TYPE_CHECKING:
+    from dentdemo.carve.surface import GpuMesh, SurfaceMaps
+
+_GATHER = PassState(blend_min=True, clip_distances=True)
+_NORMALS = PassState(clip_distances=True)
+
+
+def texture_space_passes(gl: GLContext) -> dict[str, Pass]:
+    """Passes 4 and 5, each as a chart draw (GUTTER 0) and a gutter draw (GUTTER 1); cached."""
+    key = "carve:texture-space-passes"
+    if key in gl.cache:
+        return gl.cache[key]
+    passes = {}
+    for gutter in (0, 1):
+        defines = shader_defines(GUTTER=gutter)
+        geometry = ("carve/texel.geom",) if gutter else ()
+        for name, state, samplers in (
+            ("gather", _GATHER, ("u_address", "u_tool_depth", "u_mask")),
+            ("normals", _NORMALS, ("u_height", "u_mask")),
+        ):
+            shaders = ("carve/texel.vert", f"carve/{name}.frag", *geometry)
+            prog = program(gl.cache, gl.ctx, *shaders, defines=defines)
+            passes[f"{name}{gutter}"] = Pass(name, prog, state, samplers)
+    gl.cache[key] = passes
+    return passes
+
+
+def rebuild_normals(
+    gl: GLContext,
+    gpu_mesh: GpuMesh,
+    maps: SurfaceMaps,
+    model: NDArray[np.float64],
+    camera: CollisionCamera | None,
+    passes: dict[str, Pass] | None = None,
+) -> None:
+    """Pass 5: the normals of the texels in `camera`'s footprint (its slab grown by two texels),
+    or of every texel of the map when `camera` is None (creation, import)."""
+    passes = passes or texture_space_passes(gl)
+    uniforms: dict[str, object] = {**model_uniforms(model), "u_map_size": maps.size}
+    every = None if camera is None else camera.target_texels
+    border = np.nonzero(gpu_mesh.mesh.chart_border())[0] if camera is None else camera.target_gutter
+    if camera is None:
+        uniforms["u_clip"] = False
+    else:
+        grow = 2.0 * camera.texel_metres
+        slab = (camera.slab[0] - grow, camera.slab[1] + grow)
+        uniforms.update(camera_uniforms(camera))
+        uniforms.update(clip_uniforms(camera, maps, slab))
+    for gutter in (0, 1):
+        normals = passes[f"normals{gutter}"]
+        normals.run(
+            gl.ctx,
+            maps.normal_fbo,
+            (0, 0, *maps.size),
+            lambda prog, g=gutter: gpu_mesh.draw(prog, border if g else every, f"texels{g}"),
+            (maps.height, maps.mask),
+            uniforms,
+        )
+
+
+def camera_uniforms(cam: CollisionCamera) -> dict[str, object]:
+    return {
+        "u_eye": tuple(cam.eye),
+        "u_right": tuple(cam.right),
+        "u_up": tuple(cam.up),
+        "u_forward": tuple(cam.forward),
+        "u_half_extent": cam.half_extent,
+        "u_depth_range": cam.depth_range,
+        "u_resolution": cam.resolution,
+    }
+
+
+def clip_uniforms(
+    cam: CollisionCamera, maps: SurfaceMaps, slab: tuple[float, float]
+) -> dict[str, object]:
+    """Keep the texels whose surface projects inside the camera and lies in `slab` (view depth)."""
+    return {
+        "u_clip": True,
+        "u_map_size": maps.size,
+        "u_clip_half": cam.half_extent,
+        "u_slab": slab,
+    }
+
+
+def model_uniforms(model: NDArray[np.float64]) -> dict[str, object]:
+    m = np.asarray(model, dtype=np.float64)
+    normal_matrix = np.linalg.inv(m[:3, :3]).T
+    return {
+        "u_model": m.T.astype("f4").tobytes(),  # column-major
+        "u_normal_matrix": normal_matrix.T.astype("f4").tobytes(),
+    }
