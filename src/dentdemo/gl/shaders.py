@@ -168,8 +168,10 @@ def program(
 def set_uniform(prog: moderngl.Program, name: str, value: object) -> None:
     """Set a uniform if the program has it: compilers drop uniforms that a variant or a pass does
     not use (the normal pass never reads the scatter's height, for one)."""
-    if name in prog:
-        if isinstance(value, bytes):
-            prog[name].write(value)  # matrices, column-major float32
-        else:
-            prog[name] = value
+    member = prog.get(name, None)  # a dict look-up; `name in prog` walks every member
+    if member is None:
+        return
+    if isinstance(value, bytes):
+        member.write(value)  # matrices, column-major float32
+    else:
+        member.value = value

@@ -1,0 +1,128 @@
+"""Presses on any target surface for the carve-v2 tests: bodies from meshes, contact frames from
+analytic surface points, and the oracles' measurements (holes, resampling, rotations)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dentdemo.carve.carver import CarveBody
+from dentdemo.carve.shapes import Shape
+from dentdemo.carve.surface import GpuMesh, create_maps
+from dentdemo.mesh.loader import reatlas, vertex_normals
+from dentdemo.mesh.mesh import Mesh
+
+#: Heights below this (metres) count as dented.
+DENTED = -1e-7
+
+
+class Bodies:
+    """Makes carve bodies and releases all of them at the end, even when a test fails."""
+
+    def __init__(self, gl) -> None:
+        self.gl = gl
+        self._made: list[CarveBody] = []
+
+    def make(
+        self, mesh: Mesh, map_size: int, model=None, max_dent_depth: float = 0.05
+    ) -> CarveBody:
+        gpu = GpuMesh(self.gl, mesh)
+        body = CarveBody(gpu, create_maps(self.gl, gpu, map_size, max_dent_depth))
+        if model is not None:
+            body.model = np.asarray(model, dtype=np.float64)
+        self._made.append(body)
+        return body
+
+    def release(self) -> None:
+        for body in self._made:
+            body.maps.release()
+            body.gpu_mesh.release()
+
+
+def heights(gl, body: CarveBody) -> np.ndarray:
+    return gl.read(body.maps.height)[:, :, 0]
+
+
+def holes(h: np.ndarray) -> int:
+    """Undented texels whose four neighbours are all dented (DESIGN.md's 'no holes')."""
+    d = h < DENTED
+    inner = ~d[1:-1, 1:-1] & d[:-2, 1:-1] & d[2:, 1:-1] & d[1:-1, :-2] & d[1:-1, 2:]
+    return int(inner.sum())
+
+
+def translation(p) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, 3] = p
+    return m
+
+
+def rotation(axis, degrees: float) -> np.ndarray:
+    """4x4 rotation about a unit axis through the origin (Rodrigues)."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    t = math.radians(degrees)
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    m = np.eye(4)
+    m[:3, :3] = np.eye(3) + math.sin(t) * k + (1 - math.cos(t)) * (k @ k)
+    return m
+
+
+def tilt(normal, degrees: float) -> np.ndarray:
+    """The press direction: -normal tipped by `degrees` towards a fixed tangent."""
+    n = np.asarray(normal, dtype=np.float64)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    t = np.cross(n, helper)
+    t /= np.linalg.norm(t)
+    t_ = math.radians(degrees)
+    return -(math.cos(t_) * n + math.sin(t_) * t)
+
+
+def ball_on(bodies: Bodies, point, normal, radius: float = 0.03, map_size: int = 256):
+    """A ball touching `point` (world) from the side of `normal`, and its contact frame."""
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    ball = bodies.make(Shape("sphere", (radius,)).mesh(1), map_size)
+    ball.model = translation(np.asarray(point, dtype=np.float64) + radius * n)
+    return ball, n
+
+
+def slab_on(bodies: Bodies, point, normal, map_size: int = 256):
+    """A 0.5 m x 0.02 m x 0.5 m slab whose top face touches `point` (world) from the side of
+    `normal`, turned so that its top faces the point: a plate as a tool (a ball lands on it)."""
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    slab = bodies.make(Shape("box", (0.5, 0.02, 0.5)).mesh(1), map_size)
+    axis = np.cross([0.0, 1.0, 0.0], n)
+    angle = math.degrees(math.acos(np.clip(n[1], -1.0, 1.0)))
+    turn = rotation(axis if np.linalg.norm(axis) > 1e-9 else (1.0, 0.0, 0.0), angle)
+    slab.model = translation(np.asarray(point, dtype=np.float64) + 0.01 * n) @ turn
+    return slab, n
+
+
+def noisy_sphere_without_uvs(radius: float = 0.2) -> Mesh:
+    """An icosphere with smooth deterministic bumps and no UVs, re-atlased by xatlas as the
+    mesh loader does for a scan without texture coordinates."""
+    import trimesh
+
+    ico = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    v = np.asarray(ico.vertices, dtype=np.float64)
+    bump = 1.0 + 0.04 * np.sin(3 * v[:, 0]) * np.sin(2 * v[:, 1] + 1) + 0.03 * np.cos(4 * v[:, 2])
+    positions = v * (radius * bump)[:, None]
+    faces = np.asarray(ico.faces, dtype=np.uint32)
+    normals = vertex_normals(positions, faces)
+    positions, normals, uvs, faces = reatlas(positions, faces, normals)
+    return Mesh("noisy", positions, normals, uvs, faces, curved=True)
+
+
+def coarse_from_fine(fine: np.ndarray, factor: int) -> tuple[np.ndarray, np.ndarray]:
+    """A fine map sampled at the centres of a map `factor` times coarser: each coarse centre is
+    the corner shared by the middle 2 x 2 fine texels, so their mean is the bilinear value. Also
+    returns where all four are dented."""
+    h, w = fine.shape
+    mid = factor // 2
+    a = fine[mid - 1 :: factor, mid - 1 :: factor][: h // factor, : w // factor]
+    b = fine[mid - 1 :: factor, mid::factor][: h // factor, : w // factor]
+    c = fine[mid::factor, mid - 1 :: factor][: h // factor, : w // factor]
+    d = fine[mid::factor, mid::factor][: h // factor, : w // factor]
+    return (a + b + c + d) / 4.0, np.maximum(np.maximum(a, b), np.maximum(c, d)) < DENTED

@@ -1,0 +1,423 @@
+"""Carve v2 against analytic oracles on every built-in target and on a re-atlased mesh: no holes,
+bit-stable repeated presses, a ball on a box edge, exact tool prints, agreement across texel
+densities, normals, and a footprint camera that never cuts a dent. Expected values come from the
+geometry of the press (DESIGN.md and docs/carve.md's model), never from the code under test."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import Carver
+from dentdemo.carve.constants import MIN_COS
+from dentdemo.carve.cpu_reference import CpuReference
+from dentdemo.carve.shapes import Shape
+from dentdemo.mesh.primitives import _CUBE_FACES, _cell
+from surface_helpers import (
+    DENTED,
+    Bodies,
+    ball_on,
+    coarse_from_fine,
+    heights,
+    holes,
+    noisy_sphere_without_uvs,
+    rotation,
+    slab_on,
+    tilt,
+    translation,
+)
+
+DEPTH = 0.004  # metres
+BALL = 0.03  # tool radius, metres
+
+
+@pytest.fixture
+def carver(gl):
+    c = Carver(gl)
+    yield c
+    c.release()
+
+
+@pytest.fixture
+def bodies(gl):
+    b = Bodies(gl)
+    yield b
+    b.release()
+
+
+_MESH_CACHE: dict[str, object] = {}
+
+
+def target_and_contact(kind: str):
+    """(mesh, world point, outward unit normal) of each target and the spot pressed."""
+    if kind == "plate":
+        return Shape("plate", (0.5,)).mesh(2), (0.07, 0.0, -0.04), (0.0, 1.0, 0.0)
+    if kind == "box":
+        return Shape("box", (0.3, 0.3, 0.3)).mesh(2), (0.05, 0.15, 0.06), (0.0, 1.0, 0.0)
+    if kind == "sphere":
+        u = np.array([0.3, 0.8, 0.5]) / np.linalg.norm([0.3, 0.8, 0.5])
+        return Shape("sphere", (0.2,)).mesh(2), 0.2 * u, u
+    if kind == "ball":  # a small ball where three cube-sphere charts meet (dented by a slab)
+        u = np.ones(3) / math.sqrt(3)
+        return Shape("sphere", (0.03,)).mesh(1), 0.03 * u, u
+    if kind == "capsule":
+        # On the side, right on the u seam of the capsule's chart (phi = 0).
+        return Shape("capsule", (0.1, 0.3)).mesh(2), (0.1, 0.0, 0.05), (1.0, 0.0, 0.0)
+    if "mesh" not in _MESH_CACHE:
+        _MESH_CACHE["mesh"] = noisy_sphere_without_uvs()
+    mesh = _MESH_CACHE["mesh"]
+    want = np.array([0.5, 0.7, -0.5])
+    i = int(np.argmax(mesh.positions.astype(np.float64) @ want))
+    return mesh, mesh.positions[i].astype(np.float64), mesh.normals[i].astype(np.float64)
+
+
+def press(bodies, kind: str, map_size: int, tilted: bool, radius: float = BALL, tool: str = "ball"):
+    mesh, point, normal = target_and_contact(kind)
+    target = bodies.make(mesh, map_size)
+    if tool == "slab":
+        ball, n = slab_on(bodies, point, normal)
+    else:
+        ball, n = ball_on(bodies, point, normal, radius)
+    direction = tilt(n, 20.0) if tilted else -n
+    return target, ball, ContactFrame(np.asarray(point, dtype=np.float64), direction)
+
+
+TARGETS = ["plate", "box", "sphere", "capsule", "mesh", "ball"]
+
+
+# -- no holes, on every target, two texel densities, straight and tilted ---------------------------
+@pytest.mark.parametrize("tilted", [False, True], ids=["straight", "tilted"])
+@pytest.mark.parametrize(
+    "kind,map_size,tool",
+    [(k, s, "ball") for k in TARGETS[:4] for s in (512, 1024)]
+    + [(k, s, "slab") for k in ("ball", "mesh") for s in (512, 2048)]
+    + [("mesh", 512, "ball"), ("mesh", 2048, "ball")],
+)
+def test_every_texel_of_the_dent_is_carved(gl, carver, bodies, kind, map_size, tool, tilted):
+    target, other, contact = press(bodies, kind, map_size, tilted, tool=tool)
+    carver.carve(target, other, contact, DEPTH)
+    h = heights(gl, target)
+    assert np.isfinite(h).all()
+    dented = h < DENTED
+    # A real dent: about the cap's area (pi (2 R d - d^2)) in texels, at the press's depth; the
+    # radius is the ball's (tool) or the target's own (a slab flattening a ball or the mesh).
+    texel_area = np.prod(target.maps.texel_metres)
+    radius = BALL if tool == "ball" else (0.03 if kind == "ball" else 0.15)
+    cap_area = math.pi * (2 * radius * DEPTH - DEPTH**2)
+    assert dented.sum() * texel_area > 0.3 * cap_area
+    assert 0.8 * DEPTH <= -h.min() <= 1.5 * DEPTH
+    assert holes(h) == 0, f"{holes(h)} holes in {dented.sum()} dented texels"
+
+
+# -- bit-stable repeated presses ------------------------------------------------------------------
+@pytest.mark.parametrize("tilted", [False, True], ids=["straight", "tilted"])
+@pytest.mark.parametrize("kind", TARGETS)
+def test_repeated_identical_presses_change_nothing(gl, carver, bodies, kind, tilted):
+    target, ball, contact = press(bodies, kind, 512, tilted)
+    carver.carve(target, ball, contact, DEPTH)
+    once, normals_once = heights(gl, target), gl.read(target.maps.normal)
+    for _ in range(2):
+        carver.carve(target, ball, contact, DEPTH)
+    thrice = heights(gl, target)
+    assert (once < DENTED).sum() > 50
+    assert np.abs(thrice - once).max() <= 1e-7
+    assert np.array_equal(gl.read(target.maps.normal), normals_once)
+
+
+# -- a ball on a box edge, along the diagonal ------------------------------------------------------
+def _box_face_points(face: int, half: float, size: int):
+    """World point of every texel centre of box chart `face` (NaN outside the chart)."""
+    normal, a, b = (np.asarray(x, dtype=np.float64) for x in _CUBE_FACES[face])
+    u0, v0, du, dv = _cell(face)
+    centres = (np.arange(size) + 0.5) / size
+    u, v = np.meshgrid(centres, centres)
+    s, t = 2 * (u - u0) / du - 1, 2 * (v - v0) / dv - 1
+    inside = (np.abs(s) < 1) & (np.abs(t) < 1)
+    p = (normal + s[..., None] * a + t[..., None] * b) * half
+    return np.where(inside[..., None], p, np.nan), inside, s, t
+
+
+def _ray_exit(p: np.ndarray, d: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
+    """Distance along d from p to where the ray leaves the sphere (NaN: misses or behind)."""
+    oc = p - centre
+    b = oc @ d
+    disc = b * b - ((oc**2).sum(-1) - radius**2)
+    t = -b + np.sqrt(np.maximum(disc, 0.0))
+    return np.where((disc > 0) & (t > 0), t, np.nan)
+
+
+def test_ball_on_a_box_edge_dents_both_faces_continuously(gl, carver, bodies):
+    half, size, depth, radius = 0.15, 1024, 0.006, 0.05
+    box = bodies.make(Shape("box", (0.3, 0.3, 0.3)).mesh(2), size)
+    diagonal = np.array([1.0, 1.0, 0.0]) / math.sqrt(2)
+    point = np.array([half, half, 0.02])  # on the edge between +X and +Y
+    ball, _ = ball_on(bodies, point, diagonal, radius)
+    carver.carve(box, ball, ContactFrame(point, -diagonal), depth)
+    h = heights(gl, box)
+    centre = point + (radius - depth) * diagonal  # the ball after the press
+    texel_area = (0.3 / (_cell(0)[2] * size)) * (0.3 / (_cell(0)[3] * size))
+    extrapolated = {}
+    volumes = []
+    for face, edge_axis in ((0, "t"), (2, "s")):  # +X: y = +half at t = 1; +Y: x = +half at s = 1
+        p, inside, s, t = _box_face_points(face, half, size)
+        normal = np.asarray(_CUBE_FACES[face][0], dtype=np.float64)
+        cos = normal @ diagonal  # 1/sqrt(2) on both faces
+        # The method's model: the texel moves along its normal to where the press ray leaves the
+        # ball, h = -t_exit / max(cos, MIN_COS).
+        expected = np.nan_to_num(-_ray_exit(p, -diagonal, centre, radius) / max(cos, MIN_COS))
+        expected = np.where(inside, expected, 0.0)
+        got = np.where(inside, h, 0.0)
+        assert (got < DENTED).sum() > 100, f"face {face} not dented"
+        assert holes(np.where(inside, h, -1.0)) == 0
+        volumes.append((-got.sum() * texel_area, -expected.sum() * texel_area))
+        # Heights at the edge, extrapolated from the two texel rows nearest to it, against z.
+        t_row, s_col = t[:, 0], s[0, :]  # t follows the rows (v), s the columns (u)
+        rows_in, cols_in = np.where(np.abs(t_row) < 1)[0], np.where(np.abs(s_col) < 1)[0]
+        if edge_axis == "t":
+            i0, i1 = rows_in[np.argsort(-t_row[rows_in])[:2]]
+            z, h0, h1 = p[i0, cols_in, 2], got[i0, cols_in], got[i1, cols_in]
+            d0, d1 = 1 - t_row[i0], 1 - t_row[i1]  # distances from the edge, in half-sides
+        else:
+            j0, j1 = cols_in[np.argsort(-s_col[cols_in])[:2]]
+            z, h0, h1 = p[rows_in, j0, 2], got[rows_in, j0], got[rows_in, j1]
+            d0, d1 = 1 - s_col[j0], 1 - s_col[j1]
+        edge = h0 + (h0 - h1) * d0 / (d1 - d0)
+        order = np.argsort(z)
+        extrapolated[face] = (z[order], edge[order])
+    for got_volume, expected_volume in volumes:
+        assert got_volume == pytest.approx(expected_volume, rel=0.03)
+    z0, e0 = extrapolated[0]
+    z2, e2 = extrapolated[2]
+    on_both = np.interp(z2, z0, e0)
+    dent = e2 < -0.05 * depth
+    assert dent.sum() > 10
+    assert np.abs(on_both[dent] - e2[dent]).max() <= 0.05 * depth
+
+
+# -- exact prints of flat and edged tools ----------------------------------------------------------
+def _plate_xz(size: int, side: float):
+    c = (np.arange(size) + 0.5) / size
+    return (c[None, :] - 0.5) * side + 0 * c[:, None], (0.5 - c[:, None]) * side + 0 * c[None, :]
+
+
+def corner_down() -> np.ndarray:
+    """The rotation that turns a box's corner direction (-1, -1, -1) to straight down."""
+    down = np.array([-1.0, -1.0, -1.0]) / math.sqrt(3)
+    axis = np.cross(down, [0.0, -1.0, 0.0])
+    return rotation(axis, math.degrees(math.acos(np.clip(down @ [0.0, -1.0, 0.0], -1, 1))))
+
+
+@pytest.mark.parametrize("pose", ["face", "edge", "corner", "capsule"])
+def test_tool_prints_are_exact(gl, carver, bodies, pose):
+    side, size, depth, a = 0.5, 512, 0.005, 0.1
+    plate = bodies.make(Shape("plate", (side,)).mesh(2), size)
+    x, z = _plate_xz(size, side)
+    if pose == "capsule":
+        r, length = 0.03, 0.1
+        tool = bodies.make(Shape("capsule", (r, length)).mesh(2), 256)
+        tool.model = translation((0.0, r, 0.0)) @ rotation((0, 1, 0), 90)  # axis along x
+        dx = np.maximum(np.abs(x) - length / 2, 0.0)
+        q = r * r - dx**2 - z**2
+        expected = np.where(q > 0, np.minimum(0.0, -depth + r - np.sqrt(np.maximum(q, 0))), 0.0)
+    else:
+        tool = bodies.make(Shape("box", (a, a, a)).mesh(2), 256)
+        if pose == "face":
+            tool.model = translation((0.0, a / 2, 0.0))
+            expected = np.where((np.abs(x) < a / 2) & (np.abs(z) < a / 2), -depth, 0.0)
+        elif pose == "edge":  # the edge along z points down: a V-groove with 45-degree walls
+            tool.model = translation((0.0, a / math.sqrt(2), 0.0)) @ rotation((0, 0, 1), 45)
+            expected = np.where(np.abs(z) < a / 2, np.minimum(0.0, np.abs(x) - depth), 0.0)
+        else:  # the corner (-a/2)(1, 1, 1) points down: a pyramid of three faces
+            rot = corner_down()
+            corner = rot[:3, :3] @ np.full(3, -a / 2)
+            tool.model = translation(-corner) @ rot
+            # Bottom of the tool above (x, z): y = -depth + max_i(-(n_i,h . q) / n_i,y) over the
+            # three faces at the corner (outward normals -e_i, rotated).
+            q = np.stack([x, z], -1)
+            rise = np.full(x.shape, -np.inf)
+            for e in np.eye(3):
+                n = rot[:3, :3] @ -e
+                rise = np.maximum(rise, -(q @ n[[0, 2]]) / n[1])
+            expected = np.minimum(0.0, -depth + rise)
+    carver.carve(plate, tool, ContactFrame(np.zeros(3), np.array([0.0, -1.0, 0.0])), depth)
+    h = heights(gl, plate)
+    err = np.abs(h - expected)
+    tolerance = 0.02 * depth if pose == "capsule" else 2e-6  # faceted capsule; exact planes
+    assert err.max() <= tolerance, (
+        f"worst {err.max():.2e} m at {np.unravel_index(err.argmax(), h.shape)}"
+    )
+    assert np.sqrt(np.mean(err[expected < 0] ** 2)) <= 0.005 * depth
+
+
+# -- the same press at two texel densities ---------------------------------------------------------
+@pytest.mark.parametrize("kind", ["plate", "box", "sphere"])
+def test_the_same_press_agrees_across_texel_densities(gl, carver, bodies, kind):
+    maps = {}
+    for size in (256, 1024):
+        target, ball, contact = press(bodies, kind, size, tilted=False, radius=0.05)
+        carver.carve(target, ball, contact, 0.008)
+        maps[size] = heights(gl, target)
+    coarse = maps[256]
+    fine, fine_dented = coarse_from_fine(maps[1024], 4)
+    # Compare where the coarse texel and its neighbours are dented (the rim's kink excluded).
+    d = coarse < DENTED
+    core = d.copy()
+    for axis in (0, 1):
+        for step in (-1, 1):
+            core &= np.roll(d, step, axis=axis)
+    core &= fine_dented
+    assert core.sum() > 50
+    assert np.abs(coarse[core] - fine[core]).max() <= 0.01 * 0.008
+
+
+# -- normals ---------------------------------------------------------------------------------------
+def _decode(rgba: np.ndarray) -> np.ndarray:
+    n = rgba[..., :3].astype(np.float64) / 255.0 * 2 - 1
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.degrees(np.arccos(np.clip((a * b).sum(-1), -1, 1)))
+
+
+@pytest.mark.parametrize("kind", ["plate", "box"])
+def test_normals_in_a_flat_face_dent_follow_the_cap(gl, carver, bodies, kind):
+    radius, depth, size = 0.05, 0.01, 512
+    if kind == "plate":
+        target = bodies.make(Shape("plate", (0.5,)).mesh(2), size)
+        top, x0, z0 = 0.0, 0.03, -0.02
+        u0, v0, du, dv, span = 0.0, 0.0, 1.0, 1.0, 0.5
+    else:
+        target = bodies.make(Shape("box", (0.3, 0.3, 0.3)).mesh(2), size)
+        top, x0, z0 = 0.15, 0.03, -0.02
+        u0, v0, du, dv = _cell(2)  # the +Y chart: +u along +x, +v along -z (as the plate)
+        span = 0.3
+    pristine = gl.read(target.maps.normal)
+    ball, _ = ball_on(bodies, (x0, top, z0), (0, 1, 0), radius)
+    carver.carve(target, ball, ContactFrame(np.array([x0, top, z0]), np.array([0, -1.0, 0])), depth)
+    normal = gl.read(target.maps.normal)
+    c = (np.arange(size) + 0.5) / size
+    u, v = np.meshgrid(c, c)
+    x = ((u - u0) / du - 0.5) * span
+    z = (0.5 - (v - v0) / dv) * span
+    inside = (u > u0) & (u < u0 + du) & (v > v0) & (v < v0 + dv)
+    r = np.hypot(x - x0, z - z0)
+    footprint = math.sqrt(2 * radius * depth - depth**2)
+    inner = inside & (r < 0.9 * footprint)
+    # h = -d + R - sqrt(R^2 - r^2): dh/dx = (x - x0) / sqrt(R^2 - r^2); tangent space (+x, -z, +y).
+    root = np.sqrt(radius**2 - r[inner] ** 2)
+    analytic = np.stack([-(x[inner] - x0) / root, (z[inner] - z0) / root, np.ones(inner.sum())], -1)
+    analytic /= np.linalg.norm(analytic, axis=-1, keepdims=True)
+    err = _angles(_decode(normal[inner]), analytic)
+    assert err.mean() < 1.0 and np.percentile(err, 95) < 2.0
+    far = inside & (r > footprint + 0.01)
+    assert np.array_equal(normal[far], pristine[far])  # flat stays exactly as it was
+
+
+def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies):
+    # A flat face pressed d into a ball of radius R cuts it by the plane y = R - d: along the
+    # normal at angle theta from +Y, h = (R - d) / cos(theta) - R, so dh/ds (arc length) is
+    # (R - d) sin(theta) / (R cos^2(theta)), pointing away from the pole.
+    radius, depth, size = 0.2, 0.012, 512
+    sphere = bodies.make(Shape("sphere", (radius,)).mesh(2), size)
+    pristine = gl.read(sphere.maps.normal)
+    tool = bodies.make(Shape("box", (0.2, 0.2, 0.2)).mesh(2), 64)
+    tool.model = translation((0.0, radius + 0.1, 0.0))
+    point = np.array([0.0, radius, 0.0])
+    carver.carve(sphere, tool, ContactFrame(point, np.array([0.0, -1.0, 0.0])), depth)
+    normal = _decode(gl.read(sphere.maps.normal))
+    face_n, a, b = (np.asarray(x, float) for x in _CUBE_FACES[2])
+    u0, v0, du, dv = _cell(2)
+    c = (np.arange(size) + 0.5) / size
+    u, v = np.meshgrid(c, c)
+    s, t = 2 * (u - u0) / du - 1, 2 * (v - v0) / dv - 1
+    inside = (np.abs(s) < 0.95) & (np.abs(t) < 0.95)
+
+    def position(s, t):
+        d = face_n + np.tan(s[..., None] * math.pi / 4) * a + np.tan(t[..., None] * math.pi / 4) * b
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    n = position(s, t)
+    eps = 1e-5
+    dpdu = position(s + eps, t) - position(s - eps, t)  # along +u
+    tangent = dpdu - (dpdu * n).sum(-1, keepdims=True) * n
+    tangent /= np.linalg.norm(tangent, axis=-1, keepdims=True)
+    bitangent = np.cross(n, tangent)
+    cos = n[..., 1]
+    theta = np.arccos(np.clip(cos, -1, 1))
+    cut = (radius - depth) / np.maximum(cos, 1e-9) - radius < 0
+    inner = inside & cut & (theta < 0.9 * math.acos((radius - depth) / radius))
+    away = np.array([0.0, 1.0, 0.0]) - cos[..., None] * n
+    away = -away / np.maximum(np.linalg.norm(away, axis=-1, keepdims=True), 1e-12)
+    slope = (radius - depth) * np.sin(theta) / (radius * np.maximum(cos, 1e-9) ** 2)
+    grad = slope[..., None] * away
+    analytic = np.stack(
+        [-(grad * tangent).sum(-1), -(grad * bitangent).sum(-1), np.ones(cos.shape)], -1
+    )
+    analytic /= np.linalg.norm(analytic, axis=-1, keepdims=True)
+    err = _angles(normal[inner], analytic[inner])
+    assert inner.sum() > 200
+    assert err.mean() < 1.5 and np.percentile(err, 95) < 3.0
+    untouched = inside & (theta > math.acos((radius - depth) / radius) + 0.05)
+    assert np.array_equal(gl.read(sphere.maps.normal)[untouched], pristine[untouched])
+
+
+# -- the footprint camera never cuts a dent --------------------------------------------------------
+@pytest.mark.parametrize(
+    "case", ["ball-plate", "ball-sphere-tilted", "corner-plate", "ball-capsule", "ball-mesh"]
+)
+def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
+    results = {}
+    for loose in (False, True):
+        carver = Carver(gl)
+        carver.loose_camera = loose
+        try:
+            if case == "corner-plate":
+                target = bodies.make(Shape("plate", (0.2,)).mesh(2), 256)
+                tool = bodies.make(Shape("box", (0.1, 0.1, 0.1)).mesh(1), 64)
+                rot = corner_down()
+                corner = rot[:3, :3] @ np.full(3, -0.05)
+                tool.model = translation((0.02, 0.0, 0.0) - corner) @ rot
+                contact = ContactFrame(np.array([0.02, 0.0, 0.0]), np.array([0.0, -1.0, 0.0]))
+            else:
+                kind = {"ball-plate": "plate", "ball-sphere-tilted": "sphere"}.get(
+                    case, case.split("-")[1]
+                )
+                target, tool, contact = press(bodies, kind, 256, case.endswith("tilted"))
+            jobs = carver.carve(target, tool, contact, DEPTH, DEPTH / 2)
+            results[loose] = (
+                heights(gl, target),
+                heights(gl, tool),
+                [job.camera.pixels for job in jobs],
+            )
+        finally:
+            carver.release()
+    tight, loose = results[False], results[True]
+    assert (tight[0] < DENTED).sum() > 20 and (tight[1] < DENTED).sum() > 5
+    for a, b in ((tight[0], loose[0]), (tight[1], loose[1])):
+        # The same texels dented to the same depth; views from other eyes differ by float32
+        # rounding of their view depths only (a cut dent would differ by a share of DEPTH).
+        assert np.array_equal(a < DENTED, b < DENTED)
+        assert np.abs(a - b).max() <= 2e-7
+    for t, whole in zip(tight[2], loose[2], strict=True):
+        assert t < whole  # the bound is the footprint, not the bodies
+
+
+# -- the CPU path follows the same method ------------------------------------------------------
+@pytest.mark.parametrize("kind", ["box", "sphere", "capsule", "mesh"])
+def test_cpu_reference_agrees_on_curved_and_edged_targets(gl, carver, bodies, kind):
+    maps = []
+    for path in ("gpu", "cpu"):
+        target, ball, contact = press(bodies, kind, 512, tilted=True)
+        if path == "gpu":
+            carver.carve(target, ball, contact, DEPTH, DEPTH / 3)
+        else:
+            CpuReference(gl, carver).carve(target, ball, contact, DEPTH, DEPTH / 3)
+        maps.append((heights(gl, target), heights(gl, ball), gl.read(target.maps.normal)))
+    (gt, gb, gn), (ct, cb, cn) = maps
+    assert (gt < DENTED).sum() > 50 and (gb < DENTED).sum() > 5
+    assert np.abs(gt - ct).max() <= 1e-5 and np.abs(gb - cb).max() <= 1e-5
+    assert np.abs(gn.astype(int) - cn.astype(int)).max() <= 2
