@@ -23,6 +23,8 @@ from dentdemo.gl.context import GLContext, create_headless
 
 #: The press every per-hit measurement uses: a 5 cm ball 1 cm into a 1 m plate, the ball 2 mm.
 PRESS = {"tool_radius_m": 0.05, "plate_side_m": 1.0, "depth_m": 0.01, "tool_depth_m": 0.002}
+#: Tessellation of the bench's meshes (Shape.mesh detail): 2 as measured before carve v2.
+DETAIL = 2
 #: The same dent in texels on plates of growing size (plate side m, map side): the cost of a hit
 #: must follow its footprint, not the map.
 SAME_DENT = [(0.5, 512), (4.0, 4096)]
@@ -61,6 +63,7 @@ def _press_setup(gl: GLContext, size: int, side: float = PRESS["plate_side_m"]):
         shape_from_args("sphere", [PRESS["tool_radius_m"]], "tool"),
         size,
         256,
+        detail=DETAIL,
     )
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo.carve.constants import MIN_COS
+from dentdemo.carve.constants import MIN_COS, RING_TEXELS, SLAB_MARGIN_TEXELS
 from dentdemo.carve.footprint import Overlap, Projected, Rect, overlap
 from dentdemo.mesh.mesh import Mesh
 
@@ -63,6 +63,12 @@ class CollisionCamera:
             2.0 * self.half_extent[0] / self.resolution[0],
             2.0 * self.half_extent[1] / self.resolution[1],
         )
+
+    @property
+    def ring_slab(self) -> tuple[float, float]:
+        """The slab of pass 5 (view depth, metres): pass 4's and the texels beside it."""
+        grow = RING_TEXELS * self.texel_metres
+        return self.slab[0] - grow, self.slab[1] + grow
 
     @property
     def pixels(self) -> int:
@@ -161,12 +167,16 @@ def collision_camera(
     near_s = min(target_tris.s_range()[0], tool_tris.s_range()[0]) - bumps - 1e-4
     far_s = max(target_tris.s_range()[1], tool_tris.s_range()[1]) + bumps + 1e-4
     eye = origin + right * cx + up * cy + forward * near_s
-    grow = 2.0 * max(texel_u, texel_v)
+    texel = max(texel_u, texel_v)
     proud = max(target.max_height, 0.0) + max(tool.max_height, 0.0)
     half_x, half_y = cols * pitch_x / 2.0, rows * pitch_y / 2.0
     view = Rect(cx - half_x, cx + half_x, cy - half_y, cy + half_y)
-    slab = (bound.slab[0] - 2.0 * grow, bound.slab[1] + 2.0 * grow)  # as pass 5's (texel_passes)
-    texels = target_tris.meeting(view, slab)
+    gather = (
+        bound.slab[0] - SLAB_MARGIN_TEXELS * texel,
+        bound.slab[1] + SLAB_MARGIN_TEXELS * texel,
+    )
+    ring = RING_TEXELS * texel
+    texels = target_tris.meeting(view, (gather[0] - ring, gather[1] + ring))
     return CollisionCamera(
         eye=eye,
         right=right,
@@ -175,12 +185,14 @@ def collision_camera(
         half_extent=(half_x, half_y),
         depth_range=(0.0, far_s - near_s),
         resolution=(int(cols), int(rows)),
-        slab=(bound.slab[0] - near_s - grow, bound.slab[1] - near_s + grow),
-        texel_metres=max(texel_u, texel_v),
+        slab=(gather[0] - near_s, gather[1] - near_s),
+        texel_metres=texel,
         # Occluders of the slab lie nearer than its far side; tool faces that can reach it lie
-        # beyond its near side (a pixel's slope more for the bilinear neighbours at the rim).
-        target_view=target_tris.meeting(view, (-np.inf, slab[1])),
-        tool_view=tool_tris.meeting(view, (slab[0] - proud - margin, np.inf)),
+        # beyond its near side (two pixels more for the bilinear neighbours at the rim).
+        target_view=target_tris.meeting(view, (-np.inf, gather[1] + ring)),
+        tool_view=tool_tris.meeting(
+            view, (gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf)
+        ),
         target_texels=texels,
         target_gutter=texels[target.mesh.chart_border()[texels]],
     )

@@ -10,6 +10,12 @@ MIN_COS = 0.2
 #: A gutter texel (outside every chart) takes a value when its centre lies within this many texels
 #: of a triangle in texture space: half a texel's diagonal, i.e. the texel overlaps the triangle.
 GUTTER_REACH_TEXELS = 0.7072
+#: Pass 4 keeps texels within this many texels (along the press) of the overlap's slab: float
+#: rounding never clips a texel that lies on the slab's face.
+SLAB_MARGIN_TEXELS = 0.25
+#: Pass 5 also rebuilds the texels this many texels beyond pass 4's slab: the neighbours whose
+#: central differences read a changed height.
+RING_TEXELS = 1.5
 #: Address-map clear value of u: no target surface at that camera pixel.
 NO_SURFACE = -1.0
 

@@ -93,8 +93,7 @@ class CpuReference:
             r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
             region = np.ascontiguousarray(height[r0:r1, c0:c1])
             body.maps.height.write(region.tobytes(), viewport=(c0, r0, c1 - c0, r1 - r0))
-        grow = 2.0 * cam.texel_metres
-        ring = footprint_texels(body, cam, (cam.slab[0] - grow, cam.slab[1] + grow), mask)
+        ring = footprint_texels(body, cam, cam.ring_slab, mask)
         if not len(ring.rows):
             return
         normal[ring.rows, ring.cols] = normal_rgba(height, mask, ring)

@@ -69,6 +69,15 @@ class Projected:
         centre, radius, self._members = mesh.clusters()
         self._cluster_centres = self._to_camera(centre)
         self._cluster_radii = radius * self._scale
+        bound = mesh.bound
+        #: A built-in shape's solid: a swept sphere (segment, radius) or its few faces.
+        self._segment = (
+            None if bound is None or bound.segment is None else self._to_camera(bound.segment)
+        )
+        self._radius = 0.0 if bound is None else bound.radius * self._scale
+        self._faces = (
+            None if bound is None or bound.triangles is None else self._to_camera(bound.triangles)
+        )
 
     def _to_camera(self, local: Array) -> Array:
         flat = local.reshape(-1, 3) @ self._local_axes.T
@@ -93,16 +102,28 @@ class Projected:
         """Bounds of x, y over the whole mesh (from the cluster spheres)."""
         return _sphere_rect(self._cluster_centres, self._cluster_radii)
 
-    def meeting(self, rect: Rect, slab: tuple[float, float] | None = None) -> Indices:
-        """Triangles whose bounding sphere meets `rect` (and the s range `slab`)."""
+    def meeting(
+        self, rect: Rect, slab: tuple[float, float] | None = None, exact: bool = True
+    ) -> Indices:
+        """Triangles whose bounding sphere meets `rect` (and the s range `slab`); with
+        `exact` False, every triangle of the clusters that meet them (a superset, for draws
+        that clip on the GPU anyway)."""
         groups = _meets(self._cluster_centres, self._cluster_radii, rect, slab)
         members = self._members[groups].ravel()
         members = members[members >= 0]
+        if not exact:
+            return members
         centre, radius = self.spheres(members)
         return members[_meets(centre, radius, rect, slab)]
 
     def s_extreme(self, rect: Rect, lowest: bool) -> float | None:
-        """The exact lowest (or highest) s of the triangles whose spheres meet `rect`."""
+        """The exact lowest (or highest) s of the triangles whose spheres meet `rect`; for a
+        built-in shape, of its solid (lower, or higher: conservative)."""
+        if self._segment is not None:
+            s = self._segment[:, 2]
+            return float(s.min() - self._radius) if lowest else float(s.max() + self._radius)
+        if self._faces is not None:
+            return _faces_extreme(self._faces, rect, lowest)
         c, r = self._cluster_centres[:, 2], self._cluster_radii
         groups = _meets(self._cluster_centres, self._cluster_radii, rect, None)
         if not groups.any():
@@ -122,11 +143,78 @@ class Projected:
         return float(s.min()) if lowest else float(s.max())
 
     def slab_part(self, rect: Rect, lo: float, hi: float) -> Rect | None:
-        """The x, y extent of the parts with lo <= s <= hi of the triangles meeting `rect`."""
+        """The x, y extent of the parts with lo <= s <= hi of the triangles meeting `rect` (of
+        the solid, for a built-in shape)."""
+        if self._segment is not None:
+            return swept_sphere_slab(self._segment, self._radius, lo, hi)
+        if self._faces is not None:
+            return slab_rect(self._faces, lo, hi)
         which = self.meeting(rect, (lo, hi))
         if len(which) == 0:
             return None
         return slab_rect(self.corners(which), lo, hi)
+
+
+def _faces_extreme(faces: Array, rect: Rect, lowest: bool) -> float | None:
+    """Lowest (highest) s of the parts of a few faces (k, 3, 3) whose x, y lie in `rect`."""
+    found: list[float] = []
+    for face in faces:
+        poly = _clip_to_rect(face, rect)
+        if len(poly):
+            found.append(float(poly[:, 2].min() if lowest else poly[:, 2].max()))
+    if not found:
+        return None
+    return min(found) if lowest else max(found)
+
+
+def _clip_to_rect(polygon: Array, rect: Rect) -> Array:
+    """A convex polygon (n, 3) clipped to x0 <= x <= x1, y0 <= y <= y1 (Sutherland-Hodgman)."""
+    planes = ((0, rect.x0, 1.0), (0, rect.x1, -1.0), (1, rect.y0, 1.0), (1, rect.y1, -1.0))
+    points = list(polygon)
+    for axis, value, sign in planes:
+        out = []
+        for i, p in enumerate(points):
+            q = points[(i + 1) % len(points)]
+            dp, dq = sign * (p[axis] - value), sign * (q[axis] - value)
+            if dp >= 0:
+                out.append(p)
+            if (dp >= 0) != (dq >= 0):
+                out.append(p + (q - p) * (dp / (dp - dq)))
+        points = out
+        if not points:
+            break
+    return np.asarray(points).reshape(-1, 3)
+
+
+def swept_sphere_slab(segment: Array, radius: float, lo: float, hi: float) -> Rect | None:
+    """A bound of the x, y extent of the part with lo <= s <= hi of a sphere of `radius` swept
+    along `segment` (2, 3): exact for a sphere, the disc's radius at the slab's nearest depth
+    taken along the whole clipped axis for a capsule."""
+    a, b = segment
+    ds = b[2] - a[2]
+    # The part of the axis within `radius` of the slab (parameters t in [0, 1]).
+    if abs(ds) < 1e-15:
+        if not (lo - radius <= a[2] <= hi + radius):
+            return None
+        t0, t1 = 0.0, 1.0
+    else:
+        t0, t1 = sorted(((lo - radius - a[2]) / ds, (hi + radius - a[2]) / ds))
+        t0, t1 = max(t0, 0.0), min(t1, 1.0)
+        if t0 > t1:
+            return None
+    p0, p1 = a + t0 * (b - a), a + t1 * (b - a)
+    # How far the nearest axis point lies outside the slab along s: the disc there is smallest.
+    s_near = min(max(lo, min(p0[2], p1[2])), max(p0[2], p1[2]))
+    gap = max(lo - s_near, s_near - hi, 0.0)
+    if min(p0[2], p1[2]) <= hi and max(p0[2], p1[2]) >= lo:
+        gap = 0.0
+    reach = float(np.sqrt(max(radius * radius - gap * gap, 0.0)))
+    return Rect(
+        min(p0[0], p1[0]) - reach,
+        max(p0[0], p1[0]) + reach,
+        min(p0[1], p1[1]) - reach,
+        max(p0[1], p1[1]) + reach,
+    )
 
 
 def _sphere_rect(centre: Array, radius: Array) -> Rect:

@@ -49,8 +49,8 @@ def rebuild_normals(
     camera: CollisionCamera | None,
     passes: dict[str, Pass] | None = None,
 ) -> None:
-    """Pass 5: the normals of the texels in `camera`'s footprint (its slab grown by two texels),
-    or of every texel of the map when `camera` is None (creation, import)."""
+    """Pass 5: the normals of the texels in `camera`'s footprint (its `ring_slab`), or of every
+    texel of the map when `camera` is None (creation, import)."""
     passes = passes or texture_space_passes(gl)
     uniforms: dict[str, object] = {**model_uniforms(model), "u_map_size": maps.size}
     every = None if camera is None else camera.target_texels
@@ -58,10 +58,8 @@ def rebuild_normals(
     if camera is None:
         uniforms["u_clip"] = False
     else:
-        grow = 2.0 * camera.texel_metres
-        slab = (camera.slab[0] - grow, camera.slab[1] + grow)
         uniforms.update(camera_uniforms(camera))
-        uniforms.update(clip_uniforms(camera, maps, slab))
+        uniforms.update(clip_uniforms(camera, maps, camera.ring_slab))
     for gutter in (0, 1):
         normals = passes[f"normals{gutter}"]
         normals.run(

@@ -24,6 +24,18 @@ class SurfacePoint:
     distance: float
 
 
+@dataclass(frozen=True)
+class Bound:
+    """A simple solid that holds a built-in mesh (local metres), for exact footprint bounds at
+    the cost of a formula: a sphere swept along a segment (sphere: both ends at the centre;
+    capsule and cylinder: the axis), or a few triangles that are the mesh's own faces (box,
+    plate)."""
+
+    segment: NDArray[np.float64] | None = None  # (2, 3)
+    radius: float = 0.0
+    triangles: NDArray[np.float64] | None = None  # (k, 3, 3)
+
+
 @dataclass
 class Mesh:
     """An indexed triangle mesh; faces wind counter-clockwise seen from outside."""
@@ -36,6 +48,8 @@ class Mesh:
     #: True when the surface curves (texel density varies; the carve oversamples).
     curved: bool = False
     tangents: F32 = field(default=None)  # (n, 4): xyz along +u, w = handedness (+1 right-handed)
+    #: The solid that holds the mesh, where it is a built-in shape (None: only its triangles).
+    bound: Bound | None = None
 
     def __post_init__(self) -> None:
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float32)

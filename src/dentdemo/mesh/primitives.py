@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from dentdemo.mesh.mesh import Mesh
+from dentdemo.mesh.mesh import Bound, Mesh
 
 #: Gutter around every chart, in uv units (2 texels at 256^2, 32 at 4096^2).
 GUTTER = 1.0 / 128.0
@@ -49,15 +49,32 @@ def plate(side: float, subdivisions: int = 8) -> Mesh:
     uv = np.stack([u.ravel(), v.ravel()], 1)
     pos = np.stack([(uv[:, 0] - 0.5) * side, np.zeros(len(uv)), (0.5 - uv[:, 1]) * side], 1)
     normals = np.tile([0.0, 1.0, 0.0], (len(uv), 1))
-    return Mesh("plate", pos, normals, uv, _grid_indices(n, n, 0), curved=False)
+    corners = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]]) * side / 2
+    faces = np.stack([corners[[0, 1, 2]], corners[[0, 2, 3]]])
+    return Mesh(
+        "plate",
+        pos,
+        normals,
+        uv,
+        _grid_indices(n, n, 0),
+        curved=False,
+        bound=Bound(triangles=faces),
+    )
 
 
 def box(size: tuple[float, float, float], subdivisions: int = 4) -> Mesh:
     """A box of full extents `size` (x, y, z) centred at the origin; one chart per face."""
     half = np.asarray(size, dtype=np.float64) / 2.0
-    return _cube_atlas(
+    mesh = _cube_atlas(
         "box", subdivisions, lambda n, a, b, s, t: n * half + (s * a + t * b) * half, False
     )
+    faces = []
+    for nrm, a, b in _CUBE_FACES:
+        nv, av, bv = (np.asarray(x, dtype=np.float64) for x in (nrm, a, b))
+        quad = [(nv + s * av + t * bv) * half for s, t in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+        faces += [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]]
+    mesh.bound = Bound(triangles=np.asarray(faces))
+    return mesh
 
 
 def sphere(radius: float, subdivisions: int = 32) -> Mesh:
@@ -67,7 +84,9 @@ def sphere(radius: float, subdivisions: int = 32) -> Mesh:
         d = n + np.tan(s * math.pi / 4) * a + np.tan(t * math.pi / 4) * b
         return radius * d / np.linalg.norm(d, axis=1, keepdims=True)
 
-    return _cube_atlas("sphere", subdivisions, place, True)
+    mesh = _cube_atlas("sphere", subdivisions, place, True)
+    mesh.bound = Bound(segment=np.zeros((2, 3)), radius=radius)
+    return mesh
 
 
 def _cube_atlas(name: str, n: int, place, curved: bool) -> Mesh:
@@ -139,7 +158,9 @@ def capsule(radius: float, length: float, around: int = 64, rings: int = 16) -> 
     n = np.concatenate(
         [np.stack([np.cos(lower), np.sin(lower)], 1), np.stack([np.cos(upper), np.sin(upper)], 1)]
     )
-    return _revolve("capsule", [(r, z, n)], around)
+    mesh = _revolve("capsule", [(r, z, n)], around)
+    mesh.bound = Bound(segment=np.array([[0.0, 0.0, -half], [0.0, 0.0, half]]), radius=radius)
+    return mesh
 
 
 def cylinder(radius: float, length: float, around: int = 64, rings: int = 8) -> Mesh:
@@ -148,7 +169,7 @@ def cylinder(radius: float, length: float, around: int = 64, rings: int = 8) -> 
     cap = np.linspace(0.0, radius, rings + 1)
     side = np.linspace(-half, half, rings + 1)
     ones = np.ones(rings + 1)
-    return _revolve(
+    mesh = _revolve(
         "cylinder",
         [
             (cap, -half * ones, np.stack([0 * ones, -ones], 1)),
@@ -157,3 +178,6 @@ def cylinder(radius: float, length: float, around: int = 64, rings: int = 8) -> 
         ],
         around,
     )
+    # The capsule around the cylinder holds it.
+    mesh.bound = Bound(segment=np.array([[0.0, 0.0, -half], [0.0, 0.0, half]]), radius=radius)
+    return mesh
