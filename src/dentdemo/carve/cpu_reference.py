@@ -173,24 +173,23 @@ def footprint_texels(
     lo = np.maximum(lo, 0)
     hi = np.minimum(hi, size.astype(np.int64) - 1)
     lo, hi = _clip_to_camera(uv, world, cam, lo, hi)
-    width, height = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0), np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
-    counts = width * height
-    owner = np.repeat(np.arange(len(tri)), counts)
-    k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    cols = lo[owner, 0] + k % width[owner]
-    rows = lo[owner, 1] + k // width[owner]
+    # Chart texels: centres inside a triangle, found row by row (scanline spans). Gutter texels
+    # next to a chart-border triangle: the triangle's nearest point, if the texel overlaps it.
+    owner, rows, cols = _spans(uv, lo, hi)
+    chart = mask[rows, cols]
     centre = np.stack([cols + 0.5, rows + 0.5], axis=1)
-    bary, dist = _nearest_barycentric(centre, uv[owner])
-    in_chart = mask[rows, cols]
-    inside = dist == 0.0
-    keep = np.where(in_chart, inside, border[owner] & (dist <= GUTTER_REACH_TEXELS))
-    owner, rows, cols, bary, gutter = (
-        owner[keep],
-        rows[keep],
-        cols[keep],
-        bary[keep],
-        ~in_chart[keep],
-    )
+    chart &= _inside(centre, uv[owner])
+    g_owner, g_rows, g_cols = _boxes(np.nonzero(border)[0], lo, hi)
+    near = ~mask[g_rows, g_cols]
+    g_owner, g_rows, g_cols = g_owner[near], g_rows[near], g_cols[near]
+    g_centre = np.stack([g_cols + 0.5, g_rows + 0.5], axis=1)
+    bary_near, dist = _nearest_barycentric(g_centre, uv[g_owner])
+    reach = dist <= GUTTER_REACH_TEXELS
+    bary = np.concatenate([_barycentric(centre[chart], uv[owner[chart]]), bary_near[reach]])
+    owner = np.concatenate([owner[chart], g_owner[reach]])
+    rows = np.concatenate([rows[chart], g_rows[reach]])
+    cols = np.concatenate([cols[chart], g_cols[reach]])
+    gutter = np.concatenate([np.zeros(chart.sum(), bool), np.ones(reach.sum(), bool)])
     point = np.einsum("kj,kjc->kc", bary, world[owner])
     n = np.einsum("kj,kjc->kc", bary, vnormal[owner])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
@@ -218,6 +217,42 @@ def footprint_texels(
         src_cols[sel],
         gutter[sel],
     )
+
+
+def _enumerate(counts: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """For items with `counts`: the item of every element and its index within the item."""
+    owner = np.repeat(np.arange(len(counts)), counts)
+    return owner, np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+
+
+def _boxes(which, lo, hi):
+    """Every texel (owner, row, col) of the boxes lo..hi (inclusive) of triangles `which`."""
+    width = np.maximum(hi[which, 0] - lo[which, 0] + 1, 0)
+    height = np.maximum(hi[which, 1] - lo[which, 1] + 1, 0)
+    item, k = _enumerate(width * height)
+    owner = which[item]
+    return owner, lo[owner, 1] + k // width[item], lo[owner, 0] + k % width[item]
+
+
+def _spans(uv, lo, hi):
+    """Texels (owner, row, col) whose centres may lie in each triangle (k, 3, 2), row by row
+    within the boxes lo..hi: the span between the triangle's edges at the row's centre."""
+    item, k = _enumerate(np.maximum(hi[:, 1] - lo[:, 1] + 1, 0))
+    row = lo[item, 1] + k
+    yc = row + 0.5
+    x_lo, x_hi = np.full(len(row), np.inf), np.full(len(row), -np.inf)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        a, b = uv[item, i], uv[item, j]
+        dy = b[:, 1] - a[:, 1]
+        crossing = ((a[:, 1] - yc) * (b[:, 1] - yc) <= 0) & (dy != 0)
+        x = a[:, 0] + (yc - a[:, 1]) / np.where(dy != 0, dy, 1.0) * (b[:, 0] - a[:, 0])
+        x_lo = np.where(crossing, np.minimum(x_lo, x), x_lo)
+        x_hi = np.where(crossing, np.maximum(x_hi, x), x_hi)
+    ok = np.isfinite(x_lo)
+    c0 = np.where(ok, np.maximum(np.ceil(x_lo - 0.5 - 1e-9), lo[item, 0]), 0).astype(np.int64)
+    c1 = np.where(ok, np.minimum(np.floor(x_hi - 0.5 + 1e-9), hi[item, 0]), -1).astype(np.int64)
+    span, k = _enumerate(np.maximum(c1 - c0 + 1, 0))
+    return item[span], row[span], c0[span] + k
 
 
 def _clip_to_camera(uv, world, cam: CollisionCamera, lo, hi):
@@ -248,15 +283,25 @@ def _clip_to_camera(uv, world, cam: CollisionCamera, lo, hi):
     return lo, hi
 
 
-def _nearest_barycentric(q: Array, tri: Array) -> tuple[Array, Array]:
-    """Barycentric weights of the point of each triangle (k, 3, 2) nearest to q (k, 2), and the
-    distance to it (0 inside), as texel.glsl computes them."""
+def _barycentric(q: Array, tri: Array) -> Array:
+    """Barycentric weights of points q (k, 2) in triangles (k, 3, 2)."""
     e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
     r = q - tri[:, 0]
     den = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     b1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / den
     b2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / den
-    bary = np.stack([1 - b1 - b2, b1, b2], axis=1)
+    return np.stack([1 - b1 - b2, b1, b2], axis=1)
+
+
+def _inside(q: Array, tri: Array) -> NDArray[np.bool_]:
+    """Whether points q lie in triangles tri (edges included)."""
+    return (_barycentric(q, tri) >= 0).all(axis=1)
+
+
+def _nearest_barycentric(q: Array, tri: Array) -> tuple[Array, Array]:
+    """Barycentric weights of the point of each triangle (k, 3, 2) nearest to q (k, 2), and the
+    distance to it (0 inside), as texel.glsl computes them."""
+    bary = _barycentric(q, tri)
     dist = np.zeros(len(q))
     outside = (bary < 0).any(axis=1)
     if outside.any():
