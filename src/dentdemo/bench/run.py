@@ -15,7 +15,7 @@ import numpy as np
 
 from dentdemo import __version__
 from dentdemo.app.indent import make_setup, shape_from_args
-from dentdemo.bench.timing import PassTimer, median_ms
+from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
 from dentdemo.errors import DentdemoError
@@ -73,22 +73,25 @@ def _press(setup) -> tuple:
 
 def same_dent(gl: GLContext, plates: list[tuple[float, int]], reps: int) -> list[dict]:
     """Median ms per press (both bodies) of the same dent, in metres and in texels, on plates
-    whose maps grow with their side."""
+    whose maps grow with their side; the plates take turns within each repetition."""
     carver = Carver(gl)
+    setups = [_press_setup(gl, size, side) for side, size in plates]
+    presses = [_press(setup) for setup in setups]
+    runs = [lambda press=press: carver.carve(*press) for press in presses]
+    medians = interleaved_medians(runs, gl.ctx.finish, reps)
     rows = []
-    for side, size in plates:
-        setup = _press_setup(gl, size, side)
-        press = _press(setup)
-        ms, _ = median_ms(lambda press=press: carver.carve(*press), gl.ctx.finish, reps)
+    for (side, size), press, ms in zip(plates, presses, medians, strict=True):
+        jobs = carver.plan(*press)
         rows.append(
             {
                 "plate_side_m": side,
                 "map_size": size,
                 "texel_m": side / size,
                 "gpu_ms": ms,
-                "camera_pixels": [job.camera.pixels for job in carver.last_jobs],
+                "camera_pixels": [job.camera.pixels for job in jobs],
             }
         )
+    for setup in setups:
         _release(setup)
     carver.release()
     return rows

@@ -27,6 +27,26 @@ def median_ms(
     return statistics.median(times), times
 
 
+def interleaved_medians(
+    runs: list[Callable[[], None]], finish: Callable[[], None], reps: int, warmup: int = 2
+) -> list[float]:
+    """Median wall milliseconds of each of `runs`, measured in turn within every repetition so
+    that a machine's drift (other load, clocks) falls on all of them alike."""
+    for _ in range(warmup):
+        for run in runs:
+            run()
+            finish()
+    times: list[list[float]] = [[] for _ in runs]
+    for _ in range(reps):
+        for run, out in zip(runs, times, strict=True):
+            finish()
+            start = time.perf_counter()
+            run()
+            finish()
+            out.append((time.perf_counter() - start) * 1e3)
+    return [statistics.median(t) for t in times]
+
+
 class PassTimer:
     """Per-pass GPU time with GL_TIME_ELAPSED queries, else wall time around finish()."""
 

@@ -93,9 +93,11 @@ class Mesh:
         if cached is not None and len(cached) == len(self.indices):
             return cached
         tri = self.indices.astype(np.int64)
-        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-        _, inverse, counts = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
-        single = (counts[inverse.ravel()] == 1).reshape(3, -1)
+        a = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])
+        b = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])
+        key = np.minimum(a, b) * len(self.positions) + np.maximum(a, b)  # one int per edge
+        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+        single = (counts[inverse] == 1).reshape(3, -1)
         cached = single.any(axis=0)
         self._border_cache = cached
         return cached
