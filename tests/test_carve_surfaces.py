@@ -16,6 +16,7 @@ from dentdemo.carve.constants import MIN_COS
 from dentdemo.carve.cpu_reference import CpuReference
 from dentdemo.carve.shapes import Shape
 from dentdemo.mesh.primitives import _CUBE_FACES, _cell
+from dentdemo.mesh.primitives import sphere as sphere_mesh
 from surface_helpers import (
     DENTED,
     Bodies,
@@ -248,11 +249,11 @@ def test_tool_prints_are_exact(gl, carver, bodies, pose):
     carver.carve(plate, tool, ContactFrame(np.zeros(3), np.array([0.0, -1.0, 0.0])), depth)
     h = heights(gl, plate)
     err = np.abs(h - expected)
-    tolerance = 0.02 * depth if pose == "capsule" else 2e-6  # faceted capsule; exact planes
+    tolerance = 2e-6  # the box's faces are planes; the capsule is its own smooth solid
     assert err.max() <= tolerance, (
         f"worst {err.max():.2e} m at {np.unravel_index(err.argmax(), h.shape)}"
     )
-    assert np.sqrt(np.mean(err[expected < 0] ** 2)) <= 0.005 * depth
+    assert np.sqrt(np.mean(err[expected < 0] ** 2)) <= 1e-6
 
 
 # -- the same press at two texel densities ---------------------------------------------------------
@@ -318,17 +319,19 @@ def test_normals_in_a_flat_face_dent_follow_the_cap(gl, carver, bodies, kind):
     analytic /= np.linalg.norm(analytic, axis=-1, keepdims=True)
     err = _angles(_decode(normal[inner]), analytic)
     print(f"normals on the {kind}: mean {err.mean():.2f} deg, p95 {np.percentile(err, 95):.2f}")
-    assert err.mean() < 1.0 and np.percentile(err, 95) < 2.0
+    assert err.mean() < 0.5 and np.percentile(err, 95) < 1.0
     far = inside & (r > footprint + 0.01)
     assert np.array_equal(normal[far], pristine[far])  # flat stays exactly as it was
 
 
-def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies):
+@pytest.mark.parametrize("subdivisions", [48, 8])
+def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies, subdivisions):
     # A flat face pressed d into a ball of radius R cuts it by the plane y = R - d: along the
     # normal at angle theta from +Y, h = (R - d) / cos(theta) - R, so dh/ds (arc length) is
     # (R - d) sin(theta) / (R cos^2(theta)), pointing away from the pole.
     radius, depth, size = 0.2, 0.012, 512
-    sphere = bodies.make(Shape("sphere", (radius,)).mesh(2), size)
+    # 8 subdivisions a cube face: facets 11 degrees apart, which must not show in the dent.
+    sphere = bodies.make(sphere_mesh(radius, subdivisions), size)
     pristine = gl.read(sphere.maps.normal)
     tool = bodies.make(Shape("box", (0.2, 0.2, 0.2)).mesh(2), 64)
     tool.model = translation((0.0, radius + 0.1, 0.0))
@@ -367,7 +370,7 @@ def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies):
     err = _angles(normal[inner], analytic[inner])
     print(f"normals on the sphere: mean {err.mean():.2f} deg, p95 {np.percentile(err, 95):.2f}")
     assert inner.sum() > 200
-    assert err.mean() < 1.5 and np.percentile(err, 95) < 3.0
+    assert err.mean() < 0.5 and np.percentile(err, 95) < 1.0
     untouched = inside & (theta > math.acos((radius - depth) / radius) + 0.05)
     assert np.array_equal(gl.read(sphere.maps.normal)[untouched], pristine[untouched])
 
@@ -406,9 +409,10 @@ def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
     assert (tight[0] < DENTED).sum() > 20 and (tight[1] < DENTED).sum() > 5
     for a, b in ((tight[0], loose[0]), (tight[1], loose[1])):
         # The same texels dented to the same depth; views from other eyes differ by float32
-        # rounding of their view depths only (a cut dent would differ by a share of DEPTH).
+        # rounding of their view depths only (~1e-7 m at 0.3 m from the eye, over cos of a
+        # tilted view); a cut dent would differ by a share of DEPTH (4e-3 m).
         assert np.array_equal(a < DENTED, b < DENTED)
-        assert np.abs(a - b).max() <= 2e-7
+        assert np.abs(a - b).max() <= 1e-6
     for t, whole in zip(tight[2], loose[2], strict=True):
         assert t < whole  # the bound is the footprint, not the bodies
 

@@ -1,7 +1,8 @@
 #version 330 core
 // ---- Pass 4: gather into the height map ---------------------------------------------------------
 // One fragment per texel of the target's surface map inside the footprint (texel.vert, .geom). The
-// texel's own centre on the surface (world point and normal) is projected into the collision
+// texel's own centre on the surface (world point and normal; a built-in sphere or capsule moves it
+// along its normal onto its smooth surface) is projected into the collision
 // camera, checked against the address map (is this the surface the camera saw there?) and compared
 // with the tool's deepest point along the view (pass 3, bilinear between camera pixels). The new
 // height moves the texel's point along its normal to the tool:
@@ -10,6 +11,7 @@
 // MIN keeps the deeper of old and new (dents only deepen, presses are idempotent).
 #include "camera.glsl"
 #include "texel.glsl"
+#include "swept.glsl"
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
 uniform sampler2D u_tool_depth;  // pass 3: the tool's bumped view depth, metres, or NO_CHANGE
@@ -51,6 +53,7 @@ void main() {
     vec3 world, n;
     ivec2 source;
     if (!texel_surface(world, n, source)) discard;
+    if (u_swept) swept_snap(world, n);  // a built-in sphere or capsule: its smooth surface
     float cos_view = -dot(n, u_forward);
     if (!(cos_view > 0.0)) discard;  // faces away from the camera
     vec3 rel = world - u_eye;

@@ -12,6 +12,7 @@ in vec2 in_uv;        // the body's surface-map address
 out vec2 v_uv;
 out float v_depth;    // metres along u_forward from u_eye
 out vec3 v_normal;    // world
+out vec3 v_world;     // world metres
 
 void main() {
     vec3 world = (u_model * vec4(in_position, 1.0)).xyz;
@@ -19,6 +20,7 @@ void main() {
     v_uv = in_uv;
     v_depth = dot(rel, u_forward);
     v_normal = u_normal_matrix * in_normal;
+    v_world = world;
     float z = 2.0 * (v_depth - u_depth_range.x) / (u_depth_range.y - u_depth_range.x) - 1.0;
     gl_Position = vec4(dot(rel, u_right) / u_half_extent.x, dot(rel, u_up) / u_half_extent.y, z, 1.0);
 }

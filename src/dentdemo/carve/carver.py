@@ -23,6 +23,7 @@ from dentdemo.carve.texel_passes import (
     clip_uniforms,
     model_uniforms,
     rebuild_normals,
+    swept_uniforms,
     texture_space_passes,
 )
 from dentdemo.gl.context import GLContext, release
@@ -246,7 +247,11 @@ class Carver:
             view,
             lambda prog: job.target.gpu_mesh.draw(prog, job.camera.target_view, "address"),
             (job.target.maps.height,),
-            {**camera_uniforms(job.camera), **model_uniforms(job.target.model)},
+            {
+                **camera_uniforms(job.camera),
+                **model_uniforms(job.target.model),
+                **swept_uniforms(job.target.gpu_mesh.mesh, job.target.model),
+            },
         )
 
     def _peel_pass(self, slot: _Scratch, job: CarveJob) -> None:
@@ -258,7 +263,11 @@ class Carver:
             view,
             lambda prog: job.tool.gpu_mesh.draw(prog, job.camera.tool_view, "peel"),
             (job.tool.maps.height,),
-            {**camera_uniforms(job.camera), **model_uniforms(job.tool_model)},
+            {
+                **camera_uniforms(job.camera),
+                **model_uniforms(job.tool_model),
+                **swept_uniforms(job.tool.gpu_mesh.mesh, job.tool_model),
+            },
         )
 
     # -- pass 4 --------------------------------------------------------------------------------
@@ -269,6 +278,7 @@ class Carver:
         uniforms = {
             **camera_uniforms(cam),
             **model_uniforms(job.target.model),
+            **swept_uniforms(job.target.gpu_mesh.mesh, job.target.model),
             **clip_uniforms(cam, maps, cam.slab),
             "u_min_height": -maps.max_dent_depth,
             "u_ceiling": maps.max_height,

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from dentdemo.carve.camera import CollisionCamera, ContactFrame
 from dentdemo.carve.carver import CarveBody, CarveJob, Carver
 from dentdemo.carve.constants import GUTTER_REACH_TEXELS, MIN_COS, NO_CHANGE, NO_SURFACE
+from dentdemo.carve.texel_passes import swept_uniforms
 from dentdemo.gl.context import GLContext
 
 Array = NDArray[np.float64]
@@ -80,6 +81,7 @@ class CpuReference:
         tool = self.gl.read_region(slot.peel_fbo, view, 1, 0)[:, :, 0].astype(np.float64)
         _, _, mask = self.mirror(job.target)
         texels = footprint_texels(job.target, cam, cam.slab, mask)
+        snap_to_solid(texels, job.target)
         maps = job.target.maps
         height = gather(texels, cam, address, tool, maps.max_height, maps.max_dent_depth)
         keep = np.isfinite(height)
@@ -101,6 +103,23 @@ class CpuReference:
         c0, c1 = ring.cols.min(), ring.cols.max() + 1
         region = np.ascontiguousarray(normal[r0:r1, c0:c1])
         body.maps.normal.write(region.tobytes(), viewport=(c0, r0, c1 - c0, r1 - r0))
+
+
+def snap_to_solid(t: Texels, body: CarveBody) -> None:
+    """A built-in sphere or capsule: move each texel's point along the solid's normal onto its
+    smooth surface (as swept.glsl), in place."""
+    uniforms = swept_uniforms(body.gpu_mesh.mesh, body.model)
+    if not uniforms["u_swept"] or not len(t.world):
+        return
+    a, b = np.asarray(uniforms["u_swept_a"]), np.asarray(uniforms["u_swept_b"])
+    ab = b - a
+    length2 = float(ab @ ab)
+    f = np.clip((t.world - a) @ ab / length2, 0.0, 1.0) if length2 > 0 else np.zeros(len(t.world))
+    axis = a + f[:, None] * ab
+    n = t.world - axis
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    t.normal = n
+    t.world = axis + float(uniforms["u_swept_radius"]) * n
 
 
 def gather(

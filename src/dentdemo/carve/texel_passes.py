@@ -16,6 +16,7 @@ from dentdemo.gl.shaders import program
 
 if TYPE_CHECKING:
     from dentdemo.carve.surface import GpuMesh, SurfaceMaps
+    from dentdemo.mesh.mesh import Mesh
 
 _GATHER = PassState(blend_min=True, clip_distances=True)
 _NORMALS = PassState(clip_distances=True)
@@ -93,6 +94,23 @@ def clip_uniforms(
         "u_map_size": maps.size,
         "u_clip_half": cam.half_extent,
         "u_slab": slab,
+    }
+
+
+def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
+    """A built-in sphere or capsule's own solid (world metres) for the passes that put points on
+    its smooth surface; other meshes keep their facets (`u_swept` false)."""
+    bound = mesh.bound
+    if bound is None or not bound.exact or bound.segment is None:
+        return {"u_swept": False}
+    m = np.asarray(model, dtype=np.float64)
+    ends = bound.segment @ m[:3, :3].T + m[:3, 3]
+    scale = float(np.linalg.norm(m[:3, :3], ord=2))
+    return {
+        "u_swept": True,
+        "u_swept_a": tuple(ends[0]),
+        "u_swept_b": tuple(ends[1]),
+        "u_swept_radius": bound.radius * scale,
     }
 
 

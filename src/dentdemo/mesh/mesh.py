@@ -34,6 +34,9 @@ class Bound:
     segment: NDArray[np.float64] | None = None  # (2, 3)
     radius: float = 0.0
     triangles: NDArray[np.float64] | None = None  # (k, 3, 3)
+    #: True when the swept sphere is the shape's own surface (sphere, capsule), which the carve
+    #: then uses instead of the facets; False where it only holds it (cylinder).
+    exact: bool = False
 
 
 @dataclass

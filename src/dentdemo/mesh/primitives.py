@@ -85,7 +85,7 @@ def sphere(radius: float, subdivisions: int = 32) -> Mesh:
         return radius * d / np.linalg.norm(d, axis=1, keepdims=True)
 
     mesh = _cube_atlas("sphere", subdivisions, place, True)
-    mesh.bound = Bound(segment=np.zeros((2, 3)), radius=radius)
+    mesh.bound = Bound(segment=np.zeros((2, 3)), radius=radius, exact=True)
     return mesh
 
 
@@ -159,7 +159,9 @@ def capsule(radius: float, length: float, around: int = 64, rings: int = 16) -> 
         [np.stack([np.cos(lower), np.sin(lower)], 1), np.stack([np.cos(upper), np.sin(upper)], 1)]
     )
     mesh = _revolve("capsule", [(r, z, n)], around)
-    mesh.bound = Bound(segment=np.array([[0.0, 0.0, -half], [0.0, 0.0, half]]), radius=radius)
+    mesh.bound = Bound(
+        segment=np.array([[0.0, 0.0, -half], [0.0, 0.0, half]]), radius=radius, exact=True
+    )
     return mesh
 
 
