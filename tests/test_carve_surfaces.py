@@ -257,7 +257,7 @@ def test_tool_prints_are_exact(gl, carver, bodies, pose):
 
 
 # -- the same press at two texel densities ---------------------------------------------------------
-@pytest.mark.parametrize("kind", ["plate", "box", "sphere"])
+@pytest.mark.parametrize("kind", ["plate", "box", "sphere", "capsule", "mesh"])
 def test_the_same_press_agrees_across_texel_densities(gl, carver, bodies, kind):
     maps = {}
     for size in (256, 1024):
