@@ -118,7 +118,7 @@ def collision_camera(
     linear = model[:3, :3]
     forward = _unit(np.asarray(contact.direction, dtype=np.float64))
     point = np.asarray(contact.point, dtype=np.float64)
-    surf = target.mesh.surface_at(np.linalg.solve(linear, point - model[:3, 3]))
+    surf = target.mesh.frame_near(np.linalg.solve(linear, point - model[:3, 3]))
     dpdu, dpdv = linear @ surf.dpdu, linear @ surf.dpdv  # world metres per uv unit
     width, height = map_size
     right, up = _axes(dpdu, forward)

@@ -66,6 +66,10 @@ class CarveJob:
     tool_model: NDArray[np.float64]
     camera: CollisionCamera
     depth: float
+    #: Uniforms every pass of this direction shares: the camera with the target's pose and solid,
+    #: and with the tool's (made once per hit).
+    target_uniforms: dict[str, object] = field(default_factory=dict)
+    tool_uniforms: dict[str, object] = field(default_factory=dict)
 
 
 class _Scratch:
@@ -150,7 +154,13 @@ class Carver:
             for job in jobs:
                 target = job.target
                 rebuild_normals(
-                    self.gl, target.gpu_mesh, target.maps, target.model, job.camera, self._texel
+                    self.gl,
+                    target.gpu_mesh,
+                    target.maps,
+                    target.model,
+                    job.camera,
+                    self._texel,
+                    job.target_uniforms,
                 )
         saved_fbo.use()
         ctx.viewport = saved_viewport
@@ -235,7 +245,20 @@ class Carver:
         )
         if camera is None:
             return None
-        return CarveJob(target, tool, advanced, camera, depth)
+        view = camera_uniforms(camera)
+        return CarveJob(
+            target,
+            tool,
+            advanced,
+            camera,
+            depth,
+            {
+                **view,
+                **model_uniforms(target.model),
+                **swept_uniforms(target.gpu_mesh.mesh, target.model),
+            },
+            {**view, **model_uniforms(advanced), **swept_uniforms(tool.gpu_mesh.mesh, advanced)},
+        )
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
     def _address_pass(self, slot: _Scratch, job: CarveJob) -> None:
@@ -247,11 +270,7 @@ class Carver:
             view,
             lambda prog: job.target.gpu_mesh.draw(prog, job.camera.target_view, "address"),
             (job.target.maps.height,),
-            {
-                **camera_uniforms(job.camera),
-                **model_uniforms(job.target.model),
-                **swept_uniforms(job.target.gpu_mesh.mesh, job.target.model),
-            },
+            job.target_uniforms,
         )
 
     def _peel_pass(self, slot: _Scratch, job: CarveJob) -> None:
@@ -263,11 +282,7 @@ class Carver:
             view,
             lambda prog: job.tool.gpu_mesh.draw(prog, job.camera.tool_view, "peel"),
             (job.tool.maps.height,),
-            {
-                **camera_uniforms(job.camera),
-                **model_uniforms(job.tool_model),
-                **swept_uniforms(job.tool.gpu_mesh.mesh, job.tool_model),
-            },
+            job.tool_uniforms,
         )
 
     # -- pass 4 --------------------------------------------------------------------------------
@@ -276,23 +291,21 @@ class Carver:
         cam = job.camera
         px, py = cam.pixel_metres
         uniforms = {
-            **camera_uniforms(cam),
-            **model_uniforms(job.target.model),
-            **swept_uniforms(job.target.gpu_mesh.mesh, job.target.model),
+            **job.target_uniforms,
             **clip_uniforms(cam, maps, cam.slab),
             "u_min_height": -maps.max_dent_depth,
             "u_ceiling": maps.max_height,
             "u_pixel_diagonal": float(np.hypot(px, py)),
         }
-        for gutter in (0, 1):
+        for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
+            if len(triangles) == 0:
+                continue
             gather = self._texel[f"gather{gutter}"]
             gather.run(
                 self.gl.ctx,
                 maps.height_fbo,
                 (0, 0, *maps.size),
-                lambda prog, g=gutter: job.target.gpu_mesh.draw(
-                    prog, cam.target_texels if not g else cam.target_gutter, f"texels{g}"
-                ),
+                lambda prog, t=triangles, g=gutter: job.target.gpu_mesh.draw(prog, t, f"texels{g}"),
                 (slot.address, slot.tool_depth, maps.mask),
                 uniforms,
             )

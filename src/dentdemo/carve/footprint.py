@@ -102,19 +102,18 @@ class Projected:
         """Bounds of x, y over the whole mesh (from the cluster spheres)."""
         return _sphere_rect(self._cluster_centres, self._cluster_radii)
 
-    def meeting(
-        self, rect: Rect, slab: tuple[float, float] | None = None, exact: bool = True
-    ) -> Indices:
-        """Triangles whose bounding sphere meets `rect` (and the s range `slab`); with
-        `exact` False, every triangle of the clusters that meet them (a superset, for draws
-        that clip on the GPU anyway)."""
-        groups = _meets(self._cluster_centres, self._cluster_radii, rect, slab)
-        members = self._members[groups].ravel()
+    def meeting(self, rect: Rect, slab: tuple[float, float] | None = None) -> Indices:
+        """Triangles whose bounding sphere meets `rect` (and the s range `slab`). Clusters whose
+        sphere lies wholly inside give all their triangles without a test of each."""
+        c, r = self._cluster_centres, self._cluster_radii
+        groups = _meets(c, r, rect, slab)
+        inside = groups & _within(c, r, rect, slab)
+        whole = self._members[inside].ravel()
+        members = self._members[groups & ~inside].ravel()
         members = members[members >= 0]
-        if not exact:
-            return members
         centre, radius = self.spheres(members)
-        return members[_meets(centre, radius, rect, slab)]
+        picked = members[_meets(centre, radius, rect, slab)]
+        return np.concatenate([whole[whole >= 0], picked])
 
     def s_extreme(self, rect: Rect, lowest: bool) -> float | None:
         """The exact lowest (or highest) s of the triangles whose spheres meet `rect`; for a
@@ -215,6 +214,21 @@ def swept_sphere_slab(segment: Array, radius: float, lo: float, hi: float) -> Re
         min(p0[1], p1[1]) - reach,
         max(p0[1], p1[1]) + reach,
     )
+
+
+def _within(
+    centre: Array, radius: Array, rect: Rect, slab: tuple[float, float] | None
+) -> NDArray[np.bool_]:
+    """Spheres wholly inside `rect` (and `slab`)."""
+    keep = (
+        (centre[:, 0] - radius >= rect.x0)
+        & (centre[:, 0] + radius <= rect.x1)
+        & (centre[:, 1] - radius >= rect.y0)
+        & (centre[:, 1] + radius <= rect.y1)
+    )
+    if slab is not None:
+        keep &= (centre[:, 2] - radius >= slab[0]) & (centre[:, 2] + radius <= slab[1])
+    return keep
 
 
 def _sphere_rect(centre: Array, radius: Array) -> Rect:

@@ -49,25 +49,31 @@ def rebuild_normals(
     model: NDArray[np.float64],
     camera: CollisionCamera | None,
     passes: dict[str, Pass] | None = None,
+    shared: dict[str, object] | None = None,
 ) -> None:
     """Pass 5: the normals of the texels in `camera`'s footprint (its `ring_slab`), or of every
-    texel of the map when `camera` is None (creation, import)."""
+    texel of the map when `camera` is None (creation, import). `shared`: the camera and model
+    uniforms when the caller has them."""
     passes = passes or texture_space_passes(gl)
-    uniforms: dict[str, object] = {**model_uniforms(model), "u_map_size": maps.size}
+    uniforms: dict[str, object] = dict(shared) if shared else model_uniforms(model)
+    uniforms["u_map_size"] = maps.size
     every = None if camera is None else camera.target_texels
     border = np.nonzero(gpu_mesh.mesh.chart_border())[0] if camera is None else camera.target_gutter
     if camera is None:
         uniforms["u_clip"] = False
     else:
-        uniforms.update(camera_uniforms(camera))
+        if not shared:
+            uniforms.update(camera_uniforms(camera))
         uniforms.update(clip_uniforms(camera, maps, camera.ring_slab))
-    for gutter in (0, 1):
+    for gutter, triangles in ((0, every), (1, border)):
+        if triangles is not None and len(triangles) == 0:
+            continue
         normals = passes[f"normals{gutter}"]
         normals.run(
             gl.ctx,
             maps.normal_fbo,
             (0, 0, *maps.size),
-            lambda prog, g=gutter: gpu_mesh.draw(prog, border if g else every, f"texels{g}"),
+            lambda prog, t=triangles, g=gutter: gpu_mesh.draw(prog, t, f"texels{g}"),
             (maps.height, maps.mask),
             uniforms,
         )

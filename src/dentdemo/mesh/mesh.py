@@ -177,6 +177,33 @@ class Mesh:
         n /= max(np.linalg.norm(n), 1e-30)
         return SurfacePoint(uv, dpdu[0], dpdv[0], n, float(dist[0]))
 
+    def frame_near(self, point: NDArray[np.float64]) -> SurfacePoint:
+        """The uv and tangent frame of the triangle whose bounding-sphere centre is nearest to
+        `point` (local metres), with uv extended affinely to the point's projection on its plane:
+        a cheap frame for orienting and sizing a view (exact uv on a flat chart); `surface_at`
+        gives the exact nearest point."""
+        p = np.asarray(point, dtype=np.float64)
+        group_centre, group_radius, members = self.clusters()
+        to_group = np.sqrt(((group_centre - p) ** 2).sum(1))
+        group = members[int(np.argmin(to_group - group_radius))]
+        group = group[group >= 0]
+        centre, _ = self.triangle_spheres()
+        k = int(group[np.argmin(((centre[group] - p) ** 2).sum(1))])
+        dpdu, dpdv, _ = _triangle_derivatives(self, np.array([k]))
+        a = self.positions[self.indices[k, 0]].astype(np.float64)
+        uv0 = self.uvs[self.indices[k, 0]].astype(np.float64)
+        n = np.cross(dpdu[0], dpdv[0])
+        n /= max(float(np.linalg.norm(n)), 1e-30)
+        rel = p - a
+        rel -= (rel @ n) * n  # onto the triangle's plane
+        # Solve rel = du dpdu + dv dpdv in the plane (least squares on the 3x2 system).
+        basis = np.stack([dpdu[0], dpdv[0]], axis=1)
+        duv = np.linalg.lstsq(basis, rel, rcond=None)[0]
+        distance = float(abs((p - a) @ n))
+        return SurfacePoint(
+            uv0 + duv, dpdu[0], dpdv[0], n * np.sign(n @ self.normals[self.indices[k, 0]]), distance
+        )
+
     # -- clean-up ------------------------------------------------------------------------------
     def _drop_degenerate(self) -> None:
         a, b, c = self.triangle_corners()
