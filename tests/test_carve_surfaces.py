@@ -387,7 +387,7 @@ def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
         try:
             if case == "corner-plate":
                 target = bodies.make(Shape("plate", (0.2,)).mesh(2), 256)
-                tool = bodies.make(Shape("box", (0.1, 0.1, 0.1)).mesh(1), 64)
+                tool = bodies.make(Shape("box", (0.1, 0.1, 0.1)).mesh(1), 512)
                 rot = corner_down()
                 corner = rot[:3, :3] @ np.full(3, -0.05)
                 tool.model = translation((0.02, 0.0, 0.0) - corner) @ rot
@@ -398,9 +398,13 @@ def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
                 )
                 target, tool, contact = press(bodies, kind, 256, case.endswith("tilted"))
             jobs = carver.carve(target, tool, contact, DEPTH, DEPTH / 2)
+            # Chart texels only: a gutter texel (outside every chart, there for filtering) takes
+            # the deepest of the border triangles drawn next to it, and the two cameras draw
+            # different sets of those.
+            charts = [gl.read(body.maps.mask)[:, :, 0] >= 128 for body in (target, tool)]
             results[loose] = (
-                heights(gl, target),
-                heights(gl, tool),
+                np.where(charts[0], heights(gl, target), 0.0),
+                np.where(charts[1], heights(gl, tool), 0.0),
                 [job.camera.pixels for job in jobs],
             )
         finally:
@@ -408,11 +412,12 @@ def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
     tight, loose = results[False], results[True]
     assert (tight[0] < DENTED).sum() > 20 and (tight[1] < DENTED).sum() > 5
     for a, b in ((tight[0], loose[0]), (tight[1], loose[1])):
-        # The same texels dented to the same depth; views from other eyes differ by float32
-        # rounding of their view depths only (~1e-7 m at 0.3 m from the eye, over cos of a
-        # tilted view); a cut dent would differ by a share of DEPTH (4e-3 m).
+        # The same texels dented to the same depth. Views from other eyes differ by float32
+        # rounding of their view depths (~1e-7 m on llvmpipe; ~1e-6 m on an NVIDIA H100, whose
+        # interpolation of varyings is coarser), over cos of a tilted face; a cut dent would
+        # differ by a share of DEPTH (4e-3 m).
         assert np.array_equal(a < DENTED, b < DENTED)
-        assert np.abs(a - b).max() <= 1e-6
+        assert np.abs(a - b).max() <= 1e-5
     for t, whole in zip(tight[2], loose[2], strict=True):
         assert t < whole  # the bound is the footprint, not the bodies
 
