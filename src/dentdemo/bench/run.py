@@ -346,7 +346,7 @@ def plot(r: dict, path: Path) -> None:
                 d.text((8, py - 6), f"{y:g} ms", fill="black")
     for key, colour, label in (
         ("gpu_ms", (30, 90, 200), "GPU-resident path (ours)"),
-        ("cpu_ms", (200, 60, 30), "paper's CPU update path"),
+        ("cpu_ms", (200, 60, 30), "CPU update path (the paper's place for it)"),
     ):
         pts = [to_px(row["map_size"], row[key]) for row in rows if key in row]
         if len(pts) > 1:
