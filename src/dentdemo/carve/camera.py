@@ -88,17 +88,27 @@ class BodyPose:
     texel_metres: float = 0.0
 
 
+def _length(v: Vec3) -> float:
+    return math.sqrt(float(v @ v))
+
+
 def _unit(v: Vec3) -> Vec3:
-    return v / max(float(np.linalg.norm(v)), 1e-30)
+    return v / max(_length(v), 1e-30)
+
+
+def _cross(a: Vec3, b: Vec3) -> Vec3:
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 def _axes(dpdu: Vec3, forward: Vec3) -> tuple[Vec3, Vec3]:
     right = dpdu - (dpdu @ forward) * forward
-    if np.linalg.norm(right) < 1e-9 * max(np.linalg.norm(dpdu), 1e-30):
+    if _length(right) < 1e-9 * max(_length(dpdu), 1e-30):
         helper = np.array([1.0, 0.0, 0.0]) if abs(forward[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
         right = helper - (helper @ forward) * forward
     right = _unit(right)
-    return right, np.cross(right, forward)
+    return right, _cross(right, forward)
 
 
 def collision_camera(
@@ -124,8 +134,8 @@ def collision_camera(
     right, up = _axes(dpdu, forward)
 
     # Texel pitch as the camera sees it, metres; grazing views are clamped.
-    texel_u = float(np.linalg.norm(dpdu)) / width
-    texel_v = float(np.linalg.norm(dpdv)) / height
+    texel_u = _length(dpdu) / width
+    texel_v = _length(dpdv) / height
     pitch_x = max(abs(dpdu @ right) / width, MIN_COS * texel_u)
     pitch_y = max(abs(dpdv @ up) / height, MIN_COS * texel_v)
     # The tool is known to its own texels only: where the target's texels are finer, a pixel spans
@@ -176,7 +186,11 @@ def collision_camera(
         bound.slab[1] + SLAB_MARGIN_TEXELS * texel,
     )
     ring = RING_TEXELS * texel
-    texels = target_tris.meeting(view, (gather[0] - ring, gather[1] + ring))
+    # Occluders of the slab lie nearer than its far side; tool faces that can reach it lie beyond
+    # its near side (two pixels more for the bilinear neighbours at the rim).
+    texels, target_view = target_tris.meeting_slabs(
+        view, [(gather[0] - ring, gather[1] + ring), (-np.inf, gather[1] + ring)]
+    )
     return CollisionCamera(
         eye=eye,
         right=right,
@@ -187,9 +201,7 @@ def collision_camera(
         resolution=(int(cols), int(rows)),
         slab=(gather[0] - near_s, gather[1] - near_s),
         texel_metres=texel,
-        # Occluders of the slab lie nearer than its far side; tool faces that can reach it lie
-        # beyond its near side (two pixels more for the bilinear neighbours at the rim).
-        target_view=target_tris.meeting(view, (-np.inf, gather[1] + ring)),
+        target_view=target_view,
         tool_view=tool_tris.meeting(
             view, (gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf)
         ),

@@ -64,7 +64,8 @@ class Projected:
         m = np.asarray(model, dtype=np.float64)
         self._local_axes = axes @ m[:3, :3]  # row k: local vector whose dot gives camera axis k
         self._offset = axes @ (m[:3, 3] - origin)
-        self._scale = float(np.linalg.norm(m[:3, :3], ord=2))
+        # Poses are rotations times a uniform scale: any column's length is the scale.
+        self._scale = float(np.sqrt((m[:3, :3] ** 2).sum(axis=0).max()))
         self._mesh = mesh
         centre, radius, self._members = mesh.clusters()
         self._cluster_centres = self._to_camera(centre)
@@ -78,6 +79,8 @@ class Projected:
         self._faces = (
             None if bound is None or bound.triangles is None else self._to_camera(bound.triangles)
         )
+        self._s_range: tuple[float, float] | None = None
+        self._rect: Rect | None = None
 
     def _to_camera(self, local: Array) -> Array:
         flat = local.reshape(-1, 3) @ self._local_axes.T
@@ -94,13 +97,17 @@ class Projected:
         return self._to_camera(centre[which]), radius[which] * self._scale
 
     def s_range(self) -> tuple[float, float]:
-        """Bounds of s over the whole mesh (from the cluster spheres)."""
-        c, r = self._cluster_centres[:, 2], self._cluster_radii
-        return float((c - r).min()), float((c + r).max())
+        """Bounds of s over the whole mesh (from the cluster spheres; computed once)."""
+        if self._s_range is None:
+            c, r = self._cluster_centres[:, 2], self._cluster_radii
+            self._s_range = float((c - r).min()), float((c + r).max())
+        return self._s_range
 
     def rect(self) -> Rect:
-        """Bounds of x, y over the whole mesh (from the cluster spheres)."""
-        return _sphere_rect(self._cluster_centres, self._cluster_radii)
+        """Bounds of x, y over the whole mesh (from the cluster spheres; computed once)."""
+        if self._rect is None:
+            self._rect = _sphere_rect(self._cluster_centres, self._cluster_radii)
+        return self._rect
 
     def meeting(self, rect: Rect, slab: tuple[float, float] | None = None) -> Indices:
         """Triangles whose bounding sphere meets `rect` (and the s range `slab`). Clusters whose
@@ -112,8 +119,24 @@ class Projected:
         members = self._members[groups & ~inside].ravel()
         members = members[members >= 0]
         centre, radius = self.spheres(members)
-        picked = members[_meets(centre, radius, rect, slab)]
-        return np.concatenate([whole[whole >= 0], picked])
+        return np.concatenate([whole[whole >= 0], members[_meets(centre, radius, rect, slab)]])
+
+    def meeting_slabs(self, rect: Rect, slabs: list[tuple[float, float] | None]) -> list[Indices]:
+        """`meeting(rect, slab)` for each of `slabs`, testing the rectangle once."""
+        if any(slab is None for slab in slabs):
+            union: tuple[float, float] = (-np.inf, np.inf)
+        else:
+            union = (min(sl[0] for sl in slabs), max(sl[1] for sl in slabs))  # type: ignore[index]
+        groups = _meets(self._cluster_centres, self._cluster_radii, rect, union)
+        members = self._members[groups].ravel()
+        members = members[members >= 0]
+        centre, radius = self.spheres(members)
+        near = _meets(centre, radius, rect, union)
+        members, s, radius = members[near], centre[near, 2], radius[near]
+        return [
+            members if slab is None else members[(s + radius >= slab[0]) & (s - radius <= slab[1])]
+            for slab in slabs
+        ]
 
     def s_extreme(self, rect: Rect, lowest: bool) -> float | None:
         """The exact lowest (or highest) s of the triangles whose spheres meet `rect`; for a

@@ -190,19 +190,27 @@ class Mesh:
         centre, _ = self.triangle_spheres()
         k = int(group[np.argmin(((centre[group] - p) ** 2).sum(1))])
         dpdu, dpdv, _ = _triangle_derivatives(self, np.array([k]))
+        du, dv = dpdu[0], dpdv[0]
         a = self.positions[self.indices[k, 0]].astype(np.float64)
         uv0 = self.uvs[self.indices[k, 0]].astype(np.float64)
-        n = np.cross(dpdu[0], dpdv[0])
-        n /= max(float(np.linalg.norm(n)), 1e-30)
-        rel = p - a
-        rel -= (rel @ n) * n  # onto the triangle's plane
-        # Solve rel = du dpdu + dv dpdv in the plane (least squares on the 3x2 system).
-        basis = np.stack([dpdu[0], dpdv[0]], axis=1)
-        duv = np.linalg.lstsq(basis, rel, rcond=None)[0]
-        distance = float(abs((p - a) @ n))
-        return SurfacePoint(
-            uv0 + duv, dpdu[0], dpdv[0], n * np.sign(n @ self.normals[self.indices[k, 0]]), distance
+        n = np.array(
+            [
+                du[1] * dv[2] - du[2] * dv[1],
+                du[2] * dv[0] - du[0] * dv[2],
+                du[0] * dv[1] - du[1] * dv[0],
+            ]
         )
+        n /= max(float(np.sqrt(n @ n)), 1e-30)
+        rel = p - a
+        distance = float(abs(rel @ n))
+        # uv offset of p's projection on the plane: solve rel = s dpdu + t dpdv (normal
+        # equations of the 3 x 2 system).
+        guu, guv, gvv = du @ du, du @ dv, dv @ dv
+        bu, bv = rel @ du, rel @ dv
+        det = guu * gvv - guv * guv
+        duv = np.array([gvv * bu - guv * bv, guu * bv - guv * bu]) / (det if det else 1e-30)
+        outward = 1.0 if n @ self.normals[self.indices[k, 0]] >= 0 else -1.0
+        return SurfacePoint(uv0 + duv, du, dv, n * outward, distance)
 
     # -- clean-up ------------------------------------------------------------------------------
     def _drop_degenerate(self) -> None:
@@ -238,8 +246,8 @@ def _triangle_derivatives(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Per-triangle dP/du, dP/dv (m per uv unit) and area (m^2)."""
     idx = mesh.indices if which is None else mesh.indices[which]
-    p = mesh.positions.astype(np.float64)[idx]
-    t = mesh.uvs.astype(np.float64)[idx]
+    p = mesh.positions[idx].astype(np.float64)  # index first: a hit asks for one triangle
+    t = mesh.uvs[idx].astype(np.float64)
     e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
     d1, d2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
     det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
