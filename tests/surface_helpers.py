@@ -25,10 +25,16 @@ class Bodies:
         self._made: list[CarveBody] = []
 
     def make(
-        self, mesh: Mesh, map_size: int, model=None, max_dent_depth: float = 0.05
+        self,
+        mesh: Mesh,
+        map_size: int,
+        model=None,
+        max_dent_depth: float = 0.05,
+        initial_height: np.ndarray | None = None,
     ) -> CarveBody:
         gpu = GpuMesh(self.gl, mesh)
-        body = CarveBody(gpu, create_maps(self.gl, gpu, map_size, max_dent_depth))
+        maps = create_maps(self.gl, gpu, map_size, max_dent_depth, initial_height)
+        body = CarveBody(gpu, maps)
         if model is not None:
             body.model = np.asarray(model, dtype=np.float64)
         self._made.append(body)

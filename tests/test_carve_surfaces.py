@@ -437,3 +437,26 @@ def test_cpu_reference_agrees_on_curved_and_edged_targets(gl, carver, bodies, ki
     assert (gt < DENTED).sum() > 50 and (gb < DENTED).sum() > 5
     assert np.abs(gt - ct).max() <= 1e-5 and np.abs(gb - cb).max() <= 1e-5
     assert np.abs(gn.astype(int) - cn.astype(int)).max() <= 2
+
+
+# -- existing bumps -------------------------------------------------------------------------------
+def test_a_target_s_proud_bumps_meet_the_tool(gl, carver, bodies):
+    # A plate whose map carries bumps up to 1 mm proud, pressed by a ball 0.5 mm past first touch
+    # of the flat surface: every texel goes to min(its bump, the ball's underside), so bumps are
+    # flattened a little beyond the flat footprint and hollows under it keep their depth.
+    side, size, radius, depth = 0.5, 512, 0.05, 0.0005
+    c = (np.arange(size) + 0.5) / size
+    u, v = np.meshgrid(c, c)
+    bumps = (0.0005 + 0.0005 * np.sin(2 * math.pi * 40 * u) * np.cos(2 * math.pi * 40 * v)).astype(
+        np.float32
+    )
+    plate = bodies.make(Shape("plate", (side,)).mesh(2), size, initial_height=bumps)
+    ball, _ = ball_on(bodies, (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), radius)
+    carver.carve(plate, ball, ContactFrame(np.zeros(3), np.array([0.0, -1.0, 0.0])), depth)
+    h = heights(gl, plate)
+    x, z = (u - 0.5) * side, (0.5 - v) * side
+    r2 = x**2 + z**2
+    underside = np.where(r2 < radius**2, radius - depth - np.sqrt(np.maximum(radius**2 - r2, 0)), 1)
+    expected = np.minimum(bumps, underside)
+    assert (expected < bumps - 1e-6).sum() > 200  # the ball flattens a real patch
+    assert np.abs(h - expected).max() <= 2e-6
