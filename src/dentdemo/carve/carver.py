@@ -122,6 +122,9 @@ class Carver:
         self.pass_timer: Callable[[str], AbstractContextManager] | None = None
         #: Bound the camera by whole bodies instead of the footprint (tests of the bound only).
         self.loose_camera = False
+        #: Per-triangle lists of what each pass draws on a software rasteriser, whose vertex work
+        #: is CPU work; whole clusters on a GPU, where planning is the cost of a hit.
+        self.exact_lists = gl.software
 
     # -- public --------------------------------------------------------------------------------
     def carve(
@@ -242,6 +245,7 @@ class Carver:
             contact,
             self.max_resolution,
             loose=self.loose_camera,
+            exact_lists=self.exact_lists,
         )
         if camera is None:
             return None

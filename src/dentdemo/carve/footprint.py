@@ -121,13 +121,29 @@ class Projected:
         centre, radius = self.spheres(members)
         return np.concatenate([whole[whole >= 0], members[_meets(centre, radius, rect, slab)]])
 
-    def meeting_slabs(self, rect: Rect, slabs: list[tuple[float, float] | None]) -> list[Indices]:
-        """`meeting(rect, slab)` for each of `slabs`, testing the rectangle once."""
+    def meeting_slabs(
+        self, rect: Rect, slabs: list[tuple[float, float] | None], exact: bool = True
+    ) -> list[Indices]:
+        """`meeting(rect, slab)` for each of `slabs`, testing the rectangle once. With `exact`
+        False, the triangles of every cluster that meets them (a superset, for a GPU that clips
+        and culls faster than the CPU can sort)."""
         if any(slab is None for slab in slabs):
             union: tuple[float, float] = (-np.inf, np.inf)
         else:
             union = (min(sl[0] for sl in slabs), max(sl[1] for sl in slabs))  # type: ignore[index]
-        groups = _meets(self._cluster_centres, self._cluster_radii, rect, union)
+        c, r = self._cluster_centres, self._cluster_radii
+        groups = _meets(c, r, rect, union)
+        if not exact:
+            s_c, r_c = c[groups, 2], r[groups]
+            members = self._members[groups]
+            return [
+                _valid(
+                    members
+                    if slab is None
+                    else members[(s_c + r_c >= slab[0]) & (s_c - r_c <= slab[1])]
+                )
+                for slab in slabs
+            ]
         members = self._members[groups].ravel()
         members = members[members >= 0]
         centre, radius = self.spheres(members)
@@ -237,6 +253,12 @@ def swept_sphere_slab(segment: Array, radius: float, lo: float, hi: float) -> Re
         min(p0[1], p1[1]) - reach,
         max(p0[1], p1[1]) + reach,
     )
+
+
+def _valid(members: NDArray[np.int64]) -> Indices:
+    """The triangle indices of cluster rows (dropping the padding of the last cluster)."""
+    flat = members.ravel()
+    return flat[flat >= 0]
 
 
 def _within(

@@ -42,6 +42,13 @@ class GLContext:
         return str(self.ctx.info.get("GL_RENDERER", "?"))
 
     @property
+    def software(self) -> bool:
+        """True on a software rasteriser (Mesa llvmpipe, softpipe, swrast; SwiftShader), where
+        vertices are shaded on the CPU beside the application."""
+        name = self.renderer.lower()
+        return any(word in name for word in ("llvmpipe", "softpipe", "swrast", "swiftshader"))
+
+    @property
     def version(self) -> str:
         return str(self.ctx.info.get("GL_VERSION", "?"))
 
