@@ -12,7 +12,6 @@ from PIL import Image, ImageDraw
 
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
-from dentdemo.carve.constants import NO_CHANGE
 from dentdemo.carve.shapes import Shape
 from dentdemo.carve.surface import GpuMesh, create_maps
 from dentdemo.gl.context import create_headless
@@ -52,7 +51,7 @@ def main() -> None:
     w, h = job.camera.resolution
     slot = carver.slot(0)
     address = gl.read_region(slot.address_fbo, (0, 0, w, h), 4, 0)
-    tool = gl.read_region(slot.peel_fbo, (0, 0, w, h), 1, 0)[:, :, 0]
+    tool = gl.read_region(slot.peel_fbo, (0, 0, w, h), 2, 0)  # (depth m, coverage)
     carver.carve(plate, ball, contact, 0.004)
     height = gl.read(plate.maps.height)[:, :, 0]
     normal = gl.read(plate.maps.normal)[:, :, :3]
@@ -63,8 +62,8 @@ def main() -> None:
     seen = address[:, :, 0] >= 0
     uv = np.where(seen[..., None], np.dstack([address[:, :, 0], address[:, :, 1]]), 0.0)
     uv_rgb = np.dstack([(uv[..., 0] * 40) % 1, (uv[..., 1] * 40) % 1, ~seen * 0.6]) * 255
-    reach = tool < 0.5 * NO_CHANGE
-    depth = np.where(reach, tool, np.nan)
+    reach = tool[:, :, 1] > 0.5
+    depth = np.where(reach, tool[:, :, 0], np.nan)
     lo, hi = np.nanmin(depth), np.nanmax(depth)
     tool_rgb = np.where(reach, (depth - lo) / max(hi - lo, 1e-9), 0.0)[..., None] * [255, 200, 120]
     crop = -height[r0:r1, c0:c1] / max(-height.min(), 1e-9)

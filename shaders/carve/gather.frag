@@ -14,7 +14,7 @@
 #include "swept.glsl"
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
-uniform sampler2D u_tool_depth;  // pass 3: the tool's bumped view depth, metres, or NO_CHANGE
+uniform sampler2D u_tool_depth;  // pass 3: (the tool's bumped view depth m, coverage), LINEAR
 uniform sampler2D u_mask;        // 1 inside a UV chart, 0 in the gutters
 uniform float u_min_height;      // -max_dent_depth of the target, metres
 uniform float u_ceiling;         // no texel of the target is higher than this, metres
@@ -23,25 +23,24 @@ uniform float u_pixel_diagonal;  // a camera pixel's diagonal, metres
 out float f_height;
 
 bool tool_sample(ivec2 pixel, out float depth) {
-    depth = NO_CHANGE;
+    depth = NO_TOOL;
     if (!inside_camera(pixel)) return false;
-    depth = texelFetch(u_tool_depth, pixel, 0).r;
-    return depth < 0.5 * NO_CHANGE;
+    vec2 tool = texelFetch(u_tool_depth, pixel, 0).rg;
+    depth = tool.r;
+    return tool.g > 0.5;
 }
 
-// The tool's depth at continuous pixel position p: bilinear where the four pixels around p all
-// see the tool, else the pixel that holds p.
+// The tool's depth at continuous pixel position p: bilinear, by the sampler, where the four pixels
+// around p all see the tool (their filtered coverage is 1; pixels without the tool hold 0 in both
+// channels, so depth / coverage is the blend of those that have it), else the pixel that holds p.
 bool tool_depth_at(vec2 p, out float depth) {
     ivec2 base = ivec2(floor(p));
-    vec2 f = p - vec2(base);
-    float d00, d10, d01, d11;
-    bool all4 = tool_sample(base, d00);
-    all4 = tool_sample(base + ivec2(1, 0), d10) && all4;
-    all4 = tool_sample(base + ivec2(0, 1), d01) && all4;
-    all4 = tool_sample(base + ivec2(1, 1), d11) && all4;
-    if (all4) {
-        depth = mix(mix(d00, d10, f.x), mix(d01, d11, f.x), f.y);
-        return true;
+    if (all(greaterThanEqual(base, ivec2(0))) && all(lessThan(base + 1, u_resolution))) {
+        vec2 tool = texture(u_tool_depth, (p + 0.5) / vec2(textureSize(u_tool_depth, 0))).rg;
+        if (tool.g >= FULL_COVERAGE) {
+            depth = tool.r / tool.g;
+            return true;
+        }
     }
     return tool_sample(ivec2(floor(p + 0.5)), depth);
 }

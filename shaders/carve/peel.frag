@@ -4,7 +4,8 @@
 // surface), depth moved by the tool's own height map (bump-to-depth), with the depth
 // test "farther" (GL_GREATER) from a buffer cleared to the near plane: each pixel keeps the deepest
 // point the tool reaches along the view. Pass 4 compares it with every target texel at the texel's
-// own centre. Output: that bumped view depth, metres; NO_CHANGE where the tool is absent.
+// own centre. Output: (that bumped view depth in metres, coverage 1); NO_TOOL (0, 0) where the
+// tool is absent.
 #include "camera.glsl"
 #include "../include/texel.glsl"
 #include "../include/bump_depth.glsl"
@@ -17,7 +18,7 @@ in float v_depth;
 in vec3 v_normal;
 in vec3 v_world;
 
-out float f_tool_depth;
+out vec2 f_tool;  // (bumped view depth, metres; 1: the tool is here)
 
 void main() {
     ivec2 size = textureSize(u_height, 0);
@@ -31,5 +32,5 @@ void main() {
     }
     depth = bumped_depth(depth, h_tool, n, u_forward);
     gl_FragDepth = window_depth(depth);
-    f_tool_depth = depth;
+    f_tool = vec2(depth, 1.0);
 }

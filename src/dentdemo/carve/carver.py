@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.carve.camera import BodyPose, CollisionCamera, ContactFrame, collision_camera
-from dentdemo.carve.constants import MIN_COS, NO_CHANGE, NO_SURFACE, shader_defines
+from dentdemo.carve.constants import MIN_COS, NO_SURFACE, NO_TOOL, shader_defines
 from dentdemo.carve.passes import Pass, PassState
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
@@ -78,10 +78,12 @@ class _Scratch:
 
     def __init__(self, ctx: moderngl.Context, size: int) -> None:
         self.address = ctx.texture((size, size), 4, dtype="f4")
-        self.tool_depth = ctx.texture((size, size), 1, dtype="f4")
+        self.tool_depth = ctx.texture((size, size), 2, dtype="f4")  # (view depth m, coverage)
         self.depth = ctx.depth_texture((size, size))
-        for tex in (self.address, self.tool_depth):
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.address.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        # Pass 4 interpolates the tool's depth between pixels with the sampler; pass 3 clears only
+        # its own viewport, so the border of what is in use is never sampled across.
+        self.tool_depth.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.address_fbo = ctx.framebuffer([self.address], self.depth)
         self.peel_fbo = ctx.framebuffer([self.tool_depth], self.depth)
 
@@ -279,7 +281,7 @@ class Carver:
 
     def _peel_pass(self, slot: _Scratch, job: CarveJob) -> None:
         view = (0, 0, *job.camera.resolution)
-        slot.peel_fbo.clear(NO_CHANGE, 0.0, 0.0, 0.0, depth=0.0, viewport=view)
+        slot.peel_fbo.clear(NO_TOOL, NO_TOOL, 0.0, 0.0, depth=0.0, viewport=view)
         self._peel.run(
             self.gl.ctx,
             slot.peel_fbo,

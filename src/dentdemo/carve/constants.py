@@ -3,8 +3,12 @@ every carve program as `#define`s (see `shader_defines`)."""
 
 from __future__ import annotations
 
-#: Value of a collision-camera pixel the tool's back faces did not reach (pass 3 clear), metres.
-NO_CHANGE = 1.0e30
+#: Pass 3's clear value for both its channels, the tool's depth and its coverage: no tool at that
+#: camera pixel, so pass 4 changes nothing through it.
+NO_TOOL = 0.0
+#: Pass 4 takes the sampler's bilinear tool depth only where the four pixels around a texel all
+#: see the tool: the filtered coverage is then 1 (this bound leaves room for filter rounding).
+FULL_COVERAGE = 0.9999
 #: Grazing clamp: the depth-to-height stretch 1/cos(normal, press direction) is capped at 1/MIN_COS.
 MIN_COS = 0.2
 #: A gutter texel (outside every chart) takes a value when its centre lies within this many texels
@@ -23,7 +27,8 @@ NO_SURFACE = -1.0
 def shader_defines(**extra: object) -> dict[str, object]:
     """The carve constants as GLSL `#define`s (floats written so GLSL parses them as floats)."""
     defines: dict[str, object] = {
-        "NO_CHANGE": f"{NO_CHANGE:.1e}",
+        "NO_TOOL": repr(float(NO_TOOL)),
+        "FULL_COVERAGE": repr(float(FULL_COVERAGE)),
         "MIN_COS": repr(float(MIN_COS)),
         "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),
         "NO_SURFACE": repr(float(NO_SURFACE)),

@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera, ContactFrame
 from dentdemo.carve.carver import CarveBody, CarveJob, Carver
-from dentdemo.carve.constants import GUTTER_REACH_TEXELS, MIN_COS, NO_CHANGE, NO_SURFACE
+from dentdemo.carve.constants import GUTTER_REACH_TEXELS, MIN_COS, NO_SURFACE
 from dentdemo.carve.texel_passes import swept_uniforms
 from dentdemo.gl.context import GLContext
 
@@ -78,7 +78,7 @@ class CpuReference:
         cam = job.camera
         view = (0, 0, *cam.resolution)
         address = self.gl.read_region(slot.address_fbo, view, 4, 0).astype(np.float64)
-        tool = self.gl.read_region(slot.peel_fbo, view, 1, 0)[:, :, 0].astype(np.float64)
+        tool = self.gl.read_region(slot.peel_fbo, view, 2, 0).astype(np.float64)  # depth, cover
         _, _, mask = self.mirror(job.target)
         texels = footprint_texels(job.target, cam, cam.slab, mask)
         snap_to_solid(texels, job.target)
@@ -150,8 +150,7 @@ def gather(
     def sample(x, y):
         ok = (x >= 0) & (y >= 0) & (x < cols) & (y < rows)
         value = tool[np.clip(y, 0, rows - 1), np.clip(x, 0, cols - 1)]
-        ok &= value < 0.5 * NO_CHANGE
-        return value, ok
+        return value[:, 0], ok & (value[:, 1] > 0.5)
 
     bx, by = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
     fx, fy = px - bx, py - by
