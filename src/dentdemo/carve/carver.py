@@ -268,27 +268,35 @@ class Carver:
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
     def _address_pass(self, slot: _Scratch, job: CarveJob) -> None:
-        view = (0, 0, *job.camera.resolution)
-        slot.address_fbo.clear(NO_SURFACE, NO_SURFACE, 0.0, 0.0, depth=1.0, viewport=view)
-        self._address.run(
-            self.gl.ctx,
-            slot.address_fbo,
-            view,
-            lambda prog: job.target.gpu_mesh.draw(prog, job.camera.target_view, "address"),
-            (job.target.maps.height,),
-            job.target_uniforms,
-        )
+        clear = (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0)  # (u, v, ..., depth: the far plane)
+        self._camera_pass(self._address, slot.address_fbo, clear, job, job.target, "address")
 
     def _peel_pass(self, slot: _Scratch, job: CarveJob) -> None:
+        clear = (NO_TOOL, NO_TOOL, 0.0, 0.0, 0.0)  # (depth, coverage, ..., depth: the near plane)
+        self._camera_pass(self._peel, slot.peel_fbo, clear, job, job.tool, "peel")
+
+    def _camera_pass(
+        self,
+        pass_: Pass,
+        fbo: moderngl.Framebuffer,
+        clear: tuple[float, float, float, float, float],
+        job: CarveJob,
+        body: CarveBody,
+        name: str,
+    ) -> None:
+        """Passes 2 and 3: `body` (the target or the tool) drawn by the collision camera into its
+        own viewport of `fbo`, cleared first to `clear` (colour, then depth)."""
         view = (0, 0, *job.camera.resolution)
-        slot.peel_fbo.clear(NO_TOOL, NO_TOOL, 0.0, 0.0, depth=0.0, viewport=view)
-        self._peel.run(
+        fbo.clear(*clear[:4], depth=clear[4], viewport=view)
+        target = body is job.target
+        triangles = job.camera.target_view if target else job.camera.tool_view
+        pass_.run(
             self.gl.ctx,
-            slot.peel_fbo,
+            fbo,
             view,
-            lambda prog: job.tool.gpu_mesh.draw(prog, job.camera.tool_view, "peel"),
-            (job.tool.maps.height,),
-            job.tool_uniforms,
+            lambda prog: body.gpu_mesh.draw(prog, triangles, name),
+            (body.maps.height,),
+            job.target_uniforms if target else job.tool_uniforms,
         )
 
     # -- pass 4 --------------------------------------------------------------------------------
