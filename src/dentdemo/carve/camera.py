@@ -130,7 +130,8 @@ def collision_camera(
     linear = model[:3, :3]
     forward = _unit(np.asarray(contact.direction, dtype=np.float64))
     point = np.asarray(contact.point, dtype=np.float64)
-    surf = target.mesh.frame_near(np.linalg.solve(linear, point - model[:3, 3]))
+    local = np.asarray(np.linalg.solve(linear, point - model[:3, 3]), dtype=np.float64)
+    surf = target.mesh.frame_near(local)
     dpdu, dpdv = linear @ surf.dpdu, linear @ surf.dpdv  # world metres per uv unit
     width, height = map_size
     right, up = _axes(dpdu, forward)
@@ -138,8 +139,8 @@ def collision_camera(
     # Texel pitch as the camera sees it, metres; grazing views are clamped.
     texel_u = _length(dpdu) / width
     texel_v = _length(dpdv) / height
-    pitch_x = max(abs(dpdu @ right) / width, MIN_COS * texel_u)
-    pitch_y = max(abs(dpdv @ up) / height, MIN_COS * texel_v)
+    pitch_x = max(abs(float(dpdu @ right)) / width, MIN_COS * texel_u)
+    pitch_y = max(abs(float(dpdv @ up)) / height, MIN_COS * texel_v)
     # The tool is known to its own texels only: where the target's texels are finer, a pixel spans
     # a whole number of them (pixel centres stay on texel centres) up to one of the tool's texels.
     pitch_x *= max(1, math.floor(tool.texel_metres / pitch_x))

@@ -294,7 +294,7 @@ class Carver:
             self.gl.ctx,
             fbo,
             view,
-            lambda prog: body.gpu_mesh.draw(prog, triangles, name),
+            body.gpu_mesh.drawer(triangles, name),
             (body.maps.height,),
             job.target_uniforms if target else job.tool_uniforms,
         )
@@ -319,7 +319,7 @@ class Carver:
                 self.gl.ctx,
                 maps.height_fbo,
                 (0, 0, *maps.size),
-                lambda prog, t=triangles, g=gutter: job.target.gpu_mesh.draw(prog, t, f"texels{g}"),
+                job.target.gpu_mesh.drawer(triangles, f"texels{gutter}"),
                 (slot.address, slot.tool_depth, maps.mask),
                 uniforms,
             )

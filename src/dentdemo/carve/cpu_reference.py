@@ -119,7 +119,9 @@ def snap_to_solid(t: Texels, body: CarveBody) -> None:
     n = t.world - axis
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     t.normal = n
-    t.world = axis + float(uniforms["u_swept_radius"]) * n
+    radius = uniforms["u_swept_radius"]
+    assert isinstance(radius, float)
+    t.world = axis + radius * n
 
 
 def gather(
@@ -313,7 +315,7 @@ def _barycentric(q: Array, tri: Array) -> Array:
 
 def _inside(q: Array, tri: Array) -> NDArray[np.bool_]:
     """Whether points q lie in triangles tri (edges included)."""
-    return (_barycentric(q, tri) >= 0).all(axis=1)
+    return np.asarray((_barycentric(q, tri) >= 0).all(axis=1), dtype=bool)
 
 
 def _nearest_barycentric(q: Array, tri: Array) -> tuple[Array, Array]:

@@ -35,7 +35,7 @@ class PassState:
 def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
     """Run under `state`, then put back moderngl's defaults (depth test, culling, blending and
     clip distances off; depth function "<"; additive blend equation)."""
-    flags = moderngl.NOTHING
+    flags: int = 0  # none
     if state.depth_test:
         flags |= moderngl.DEPTH_TEST
         ctx.depth_func = state.depth_func
@@ -46,7 +46,7 @@ def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
     if state.blend_min:
         flags |= moderngl.BLEND
         ctx.blend_func = moderngl.ONE, moderngl.ONE
-        ctx.blend_equation = moderngl.MIN
+        ctx.blend_equation = (moderngl.MIN, moderngl.MIN)  # colour, alpha
     ctx.enable_only(flags)
     if state.clip_distances:
         for i in range(CLIP_DISTANCES):
@@ -57,11 +57,11 @@ def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
         if state.clip_distances:
             for i in range(CLIP_DISTANCES):
                 ctx.disable_direct(GL_CLIP_DISTANCE0 + i)
-        ctx.enable_only(moderngl.NOTHING)
+        ctx.enable_only(0)  # none
         ctx.depth_func = "<"
         ctx.cull_face = "back"
-        ctx.blend_equation = moderngl.FUNC_ADD
-        ctx.blend_func = moderngl.DEFAULT_BLENDING
+        ctx.blend_equation = (moderngl.FUNC_ADD, moderngl.FUNC_ADD)
+        ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)  # the default
 
 
 @dataclass(frozen=True)

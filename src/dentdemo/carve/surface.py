@@ -4,6 +4,7 @@ static chart mask (R8), plus the body's mesh in GPU buffers."""
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -84,6 +85,16 @@ class GpuMesh:
         buffer.orphan()
         buffer.write(data)
         self.vao(prog, subset).render(moderngl.TRIANGLES, vertices=3 * len(triangles))
+
+    def drawer(
+        self, triangles: np.ndarray | None, subset: str
+    ) -> Callable[[moderngl.Program], None]:
+        """`draw` bound to its triangles, for a pass to call with its program."""
+
+        def draw(prog: moderngl.Program) -> None:
+            self.draw(prog, triangles, subset)
+
+        return draw
 
     def release(self) -> None:
         release(*self._vaos.values(), *self._subsets.values(), self.vbo, self.ibo)

@@ -73,7 +73,7 @@ def rebuild_normals(
             gl.ctx,
             maps.normal_fbo,
             (0, 0, *maps.size),
-            lambda prog, t=triangles, g=gutter: gpu_mesh.draw(prog, t, f"texels{g}"),
+            gpu_mesh.drawer(triangles, f"texels{gutter}"),
             (maps.height, maps.mask),
             uniforms,
         )
