@@ -118,7 +118,7 @@ def noisy_sphere_without_uvs(radius: float = 0.2) -> Mesh:
     faces = np.asarray(ico.faces, dtype=np.uint32)
     normals = vertex_normals(positions, faces)
     positions, normals, uvs, faces = reatlas(positions, faces, normals)
-    return Mesh("noisy", positions, normals, uvs, faces, curved=True)
+    return Mesh("noisy", positions, normals, uvs, faces)
 
 
 def coarse_from_fine(fine: np.ndarray, factor: int) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.carve.camera import BodyPose, CollisionCamera, ContactFrame, collision_camera
-from dentdemo.carve.constants import MIN_COS, NO_SURFACE, NO_TOOL, shader_defines
+from dentdemo.carve.constants import NO_SURFACE, NO_TOOL, shader_defines
 from dentdemo.carve.passes import Pass, PassState
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
@@ -65,11 +65,10 @@ class CarveJob:
     tool: CarveBody
     tool_model: NDArray[np.float64]
     camera: CollisionCamera
-    depth: float
     #: Uniforms every pass of this direction shares: the camera with the target's pose and solid,
     #: and with the tool's (made once per hit).
-    target_uniforms: dict[str, object] = field(default_factory=dict)
-    tool_uniforms: dict[str, object] = field(default_factory=dict)
+    target_uniforms: dict[str, object]
+    tool_uniforms: dict[str, object]
 
 
 class _Scratch:
@@ -257,7 +256,6 @@ class Carver:
             tool,
             advanced,
             camera,
-            depth,
             {
                 **view,
                 **model_uniforms(target.model),
@@ -323,6 +321,3 @@ class Carver:
                 (slot.address, slot.tool_depth, maps.mask),
                 uniforms,
             )
-
-
-__all__ = ["MIN_COS", "CarveBody", "CarveJob", "Carver"]

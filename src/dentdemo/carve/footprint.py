@@ -110,16 +110,8 @@ class Projected:
         return self._rect
 
     def meeting(self, rect: Rect, slab: tuple[float, float] | None = None) -> Indices:
-        """Triangles whose bounding sphere meets `rect` (and the s range `slab`). Clusters whose
-        sphere lies wholly inside give all their triangles without a test of each."""
-        c, r = self._cluster_centres, self._cluster_radii
-        groups = _meets(c, r, rect, slab)
-        inside = groups & _within(c, r, rect, slab)
-        whole = self._members[inside].ravel()
-        members = self._members[groups & ~inside].ravel()
-        members = members[members >= 0]
-        centre, radius = self.spheres(members)
-        return np.concatenate([whole[whole >= 0], members[_meets(centre, radius, rect, slab)]])
+        """Triangles whose bounding sphere meets `rect` (and the s range `slab`)."""
+        return self.meeting_slabs(rect, [slab])[0]
 
     def meeting_slabs(
         self, rect: Rect, slabs: list[tuple[float, float] | None], exact: bool = True
@@ -259,21 +251,6 @@ def _valid(members: NDArray[np.int64]) -> Indices:
     """The triangle indices of cluster rows (dropping the padding of the last cluster)."""
     flat = members.ravel()
     return flat[flat >= 0]
-
-
-def _within(
-    centre: Array, radius: Array, rect: Rect, slab: tuple[float, float] | None
-) -> NDArray[np.bool_]:
-    """Spheres wholly inside `rect` (and `slab`)."""
-    keep = (
-        (centre[:, 0] - radius >= rect.x0)
-        & (centre[:, 0] + radius <= rect.x1)
-        & (centre[:, 1] - radius >= rect.y0)
-        & (centre[:, 1] + radius <= rect.y1)
-    )
-    if slab is not None:
-        keep &= (centre[:, 2] - radius >= slab[0]) & (centre[:, 2] + radius <= slab[1])
-    return keep
 
 
 def _sphere_rect(centre: Array, radius: Array) -> Rect:

@@ -143,4 +143,4 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
             f"{path}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2
         )
         positions, normals, uvs, indices = reatlas(positions, indices, normals)
-    return Mesh(path.stem, positions, normals, uvs, indices, curved=True)
+    return Mesh(path.stem, positions, normals, uvs, indices)

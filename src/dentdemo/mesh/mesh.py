@@ -48,8 +48,6 @@ class Mesh:
     normals: F32  # (n, 3) unit, outward
     uvs: F32  # (n, 2) in [0, 1], unique per surface point (an atlas)
     indices: NDArray[np.uint32]  # (m, 3)
-    #: True when the surface curves (texel density varies; the carve oversamples).
-    curved: bool = False
     tangents: F32 = field(default=None)  # (n, 4): xyz along +u, w = handedness (+1 right-handed)
     #: The solid that holds the mesh, where it is a built-in shape (None: only its triangles).
     bound: Bound | None = None

@@ -57,7 +57,6 @@ def plate(side: float, subdivisions: int = 8) -> Mesh:
         normals,
         uv,
         _grid_indices(n, n, 0),
-        curved=False,
         bound=Bound(triangles=faces),
     )
 
@@ -108,9 +107,7 @@ def _cube_atlas(name: str, n: int, place, curved: bool) -> Mesh:
         positions.append(pos)
         normals.append(nr)
         uvs.append(uv)
-    return Mesh(
-        name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices), curved
-    )
+    return Mesh(name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices))
 
 
 def _revolve(
@@ -142,9 +139,7 @@ def _revolve(
         positions.append(pos)
         normals.append(nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12))
         uvs.append(uv)
-    return Mesh(
-        name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices), True
-    )
+    return Mesh(name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices))
 
 
 def capsule(radius: float, length: float, around: int = 64, rings: int = 16) -> Mesh:
