@@ -221,7 +221,9 @@ def footprint_texels(
         & (rel @ cam.forward >= slab[0])
         & (rel @ cam.forward <= slab[1])
     )
-    per_u, per_v = _texel_steps(uv, world)
+    # One texel step along +u and along +v on each triangle, world metres.
+    dpdu, dpdv = mesh.triangle_derivatives(which)
+    per_u, per_v = dpdu @ model[:3, :3].T / size[0], dpdv @ model[:3, :3].T / size[1]
     near_uv = np.einsum("kj,kjc->kc", bary, uv[owner])
     src = np.floor(near_uv).astype(np.int64)
     src_cols, src_rows = _chart_source(src[:, 0], src[:, 1], cols, rows, near_uv, mask, gutter)
@@ -340,14 +342,6 @@ def _nearest_barycentric(q: Array, tri: Array) -> tuple[Array, Array]:
             best_b = np.where(better[:, None], b, best_b)
         bary[outside], dist[outside] = best_b, best
     return bary, dist
-
-
-def _texel_steps(uv: Array, world: Array) -> tuple[Array, Array]:
-    """Per triangle, the world offset of one texel step along +u and along +v (metres)."""
-    d1, d2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
-    e1, e2 = world[:, 1] - world[:, 0], world[:, 2] - world[:, 0]
-    det = (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])[:, None]
-    return (e1 * d2[:, 1:] - e2 * d1[:, 1:]) / det, (e2 * d1[:, :1] - e1 * d2[:, :1]) / det
 
 
 def _chart_source(src_c, src_r, cols, rows, near_uv, mask, gutter):

@@ -87,6 +87,13 @@ class Mesh:
         _, _, _, centre, radius = self._bounds()
         return centre, radius
 
+    def triangle_derivatives(
+        self, which: NDArray[np.int64] | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """dP/du and dP/dv of triangles `which` (all: None), local metres per uv unit."""
+        dpdu, dpdv, _ = _triangle_derivatives(self, which)
+        return dpdu, dpdv
+
     def chart_border(self) -> NDArray[np.bool_]:
         """(m,) True for triangles with an edge on a UV chart's border (an edge no other triangle
         shares: seams split vertices, so seams count). Only these touch gutter texels. Cached."""
