@@ -48,8 +48,10 @@ class GpuMesh:
         self.vbo = ctx.buffer(data.tobytes())
         self.ibo = ctx.buffer(mesh.indices.astype("u4").tobytes())
         self._vaos: dict[tuple[int, str], moderngl.VertexArray] = {}
-        #: Index buffers of triangle subsets (one per use, rewritten per hit; see `draw`).
+        #: Index buffers of triangle subsets (one per use, rewritten per hit; see `draw`), and
+        #: the triangle list each holds now.
         self._subsets: dict[str, moderngl.Buffer] = {}
+        self._held: dict[str, np.ndarray] = {}
         self._ctx = ctx
 
     _LAYOUT = "3f 3f 2f 4f"
@@ -72,7 +74,8 @@ class GpuMesh:
     def draw(self, prog: moderngl.Program, triangles: np.ndarray | None, subset: str) -> None:
         """Draw triangles `triangles` (indices into the mesh's triangles; None: all) with `prog`
         through the index buffer named `subset`, orphaned and refilled (GPU upload of 12 bytes a
-        triangle, no read)."""
+        triangle, no read) unless it holds that very list already (passes 4 and 5 draw the same
+        triangles)."""
         if triangles is None:
             self.vao(prog).render(moderngl.TRIANGLES)
             return
@@ -80,10 +83,11 @@ class GpuMesh:
             return
         if subset not in self._subsets:
             self._subsets[subset] = self._ctx.buffer(reserve=self.ibo.size, dynamic=True)
-        data = self.mesh.indices[triangles].astype("u4").tobytes()
-        buffer = self._subsets[subset]
-        buffer.orphan()
-        buffer.write(data)
+        if self._held.get(subset) is not triangles:
+            buffer = self._subsets[subset]
+            buffer.orphan()
+            buffer.write(self.mesh.indices[triangles].astype("u4").tobytes())
+            self._held[subset] = triangles
         self.vao(prog, subset).render(moderngl.TRIANGLES, vertices=3 * len(triangles))
 
     def drawer(
