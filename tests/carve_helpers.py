@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dentdemo.app.indent import PressSetup, make_setup, shape_from_args
+from dentdemo.app.press import PressSetup, make_setup, shape_from_args
 
 
 def setup(

@@ -8,7 +8,7 @@ import pytest
 
 from carve_helpers import heights, release, setup
 from cli_helpers import dentdemo
-from dentdemo.app.indent import cap_error
+from dentdemo.app.press import cap_error
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
 

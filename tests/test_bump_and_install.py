@@ -1,6 +1,7 @@
 """Authored bump maps as start heights, and a non-editable install that runs."""
 
 import json
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -94,8 +95,18 @@ def test_indent_tool_pattern_png(tmp_path):
 
 def test_wheel_carries_shaders_and_assets_and_runs_installed(tmp_path):
     wheels = tmp_path / "wheels"
+    # Build from a copy without the in-tree build/ folder, whose stale files (modules since
+    # moved or deleted) setuptools would otherwise put into the wheel.
+    source = tmp_path / "source"
+    shutil.copytree(
+        ROOT,
+        source,
+        ignore=shutil.ignore_patterns(
+            "build", "dist", ".venv", ".git", "*.egg-info", "__pycache__", ".*cache", ".old"
+        ),
+    )
     build = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(ROOT)],
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(source)],
         capture_output=True,
         text=True,
         timeout=600,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from carve_helpers import cap, heights, plate_xz, release, setup
-from dentdemo.app.indent import cap_error, footprint_radius
+from dentdemo.app.press import cap_error, footprint_radius
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import Carver
 

@@ -59,7 +59,7 @@ def test_indent_reports_the_cap_error(tmp_path):
 )
 def test_indent_bad_arguments(tmp_path, args, fragment):
     result = dentdemo("indent", *args, "--out", str(tmp_path))
-    assert result.returncode == 1
+    assert result.returncode != 0
     assert fragment in result.stderr and len(result.stderr.strip().splitlines()) == 1
 
 

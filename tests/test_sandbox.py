@@ -105,7 +105,7 @@ def test_render_writes_every_frame_and_maps(tmp_path):
 )
 def test_render_bad_arguments(tmp_path, args, fragment):
     result = dentdemo("render", "--out", str(tmp_path / "x.png"), *args)
-    assert result.returncode == 1 and fragment in result.stderr
+    assert result.returncode != 0 and fragment in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "x.png").exists()
 

@@ -148,10 +148,10 @@ class DemoController:
         )
 
     def screenshot(self, path: Path) -> Path:
-        from dentdemo.app.headless import save_png
+        from dentdemo.outputs import write_png
 
         self.render()
-        save_png(self.renderer.read_rgb(), path)
+        write_png(path, self.renderer.read_rgb())
         return path
 
     def close(self) -> None:

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo import outputs
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
@@ -278,16 +279,15 @@ class Simulation:
 
     def export_maps(self, directory: Path) -> list[Path]:
         """Write each dentable body's height (.npy, float32 [v, u]) and normals (.png)."""
-        from dentdemo.app.indent import save_normal_png
-
-        directory.mkdir(parents=True, exist_ok=True)
         written = []
         for body_id, body in sorted(self.bodies.items()):
             if not body.spec.dentable:
                 continue
             height = self.gl.read(body.maps.height)[:, :, 0]
-            np.save(directory / f"{body_id}_height.npy", height)
-            save_normal_png(self.gl.read(body.maps.normal), directory / f"{body_id}_normal.png")
+            outputs.write_npy(directory / f"{body_id}_height.npy", height)
+            outputs.write_normal_png(
+                directory / f"{body_id}_normal.png", self.gl.read(body.maps.normal)
+            )
             written += [directory / f"{body_id}_height.npy", directory / f"{body_id}_normal.png"]
         return written
 

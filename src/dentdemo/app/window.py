@@ -162,12 +162,12 @@ class DemoWindow:
     # -- loop ----------------------------------------------------------------------------------
     def screenshot(self, path: Path) -> Path:
         """The window's image (scene and panel) as a PNG."""
-        from dentdemo.app.headless import save_png
+        from dentdemo.outputs import write_png
 
         ctx = self.gl.ctx
         w, h = self.glfw.get_framebuffer_size(self.window)
         pixels = self.gl.read_framebuffer(ctx.screen, 3)[::-1]
-        save_png(pixels[:h, :w].copy(), path)
+        write_png(path, pixels[:h, :w])
         return path
 
     def run(self, screenshot: Path | None = None, exit_after: float | None = None) -> int:

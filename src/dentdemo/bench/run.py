@@ -3,8 +3,7 @@ pass, sandbox frame times against scene size, and the memory of the maps."""
 
 from __future__ import annotations
 
-import argparse
-import json
+import io
 import os
 import platform
 import statistics
@@ -14,12 +13,12 @@ from pathlib import Path
 import numpy as np
 
 from dentdemo import __version__
-from dentdemo.app.indent import make_setup, shape_from_args
+from dentdemo.app.press import make_setup, shape_from_args
 from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
-from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext, create_headless
+from dentdemo.outputs import write_bytes
 
 #: The press every per-hit measurement uses: a 5 cm ball 1 cm into a 1 m plate, the ball 2 mm.
 PRESS = {"tool_radius_m": 0.05, "plate_side_m": 1.0, "depth_m": 0.01, "tool_depth_m": 0.002}
@@ -358,30 +357,6 @@ def plot(r: dict, path: Path) -> None:
         d.text((pad + 48, ly), label, fill="black")
     d.text((W // 2 - 120, H - 30), "height-map size (same dent in metres)", fill="black")
     d.text((W - pad - 260, 20), f"{r['machine']['renderer'][:38]}", fill="black")
-    img.save(path)
-
-
-def run_command(args: argparse.Namespace) -> int:
-    mode = "tiny" if args.tiny else ("quick" if args.quick else "full")
-    result = run_bench(mode)
-    print_table(result)
-    if args.json:
-        path = Path(args.json)
-        try:
-            path.write_text(json.dumps(result, indent=2))
-        except OSError as exc:
-            raise DentdemoError(f"{path}: cannot write ({exc.strerror or exc})") from None
-    if args.plot:
-        plot(result, Path(args.plot))
-    return 0
-
-
-def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bench", help="measure per-hit cost, both update paths, frame times, memory")
-    p.add_argument(
-        "--quick", action="store_true", help="a shorter run (under a minute on llvmpipe)"
-    )
-    p.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # the test suite's mode
-    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
-    p.add_argument("--plot", metavar="PNG", help="plot cost per hit against map size")
-    p.set_defaults(handler=run_command)
+    buffer = io.BytesIO()
+    img.save(buffer, format="PNG")
+    write_bytes(path, buffer.getvalue())

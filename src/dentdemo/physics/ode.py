@@ -10,8 +10,11 @@ import contextlib
 import ctypes
 import io
 import os
+import platform
+import sys
 from types import ModuleType
 
+from dentdemo import log
 from dentdemo.errors import PhysicsLibraryError
 
 #: Every ODE function dentdemo calls.
@@ -109,7 +112,54 @@ def _load() -> ModuleType:
             "ODE_double_precision); Debian's libode8 is"
         )
     odepy.dInitODE2(0)
+    _route_messages()
     return odepy
+
+
+#: ODE's handler type: (number, printf format, va_list).
+_HANDLER = ctypes.CFUNCTYPE(None, ctypes.c_int, ctypes.c_char_p, ctypes.c_void_p)
+
+
+def _ode_text(number: int, fmt: bytes | None, args: int | None) -> str:
+    """An ODE message formatted by the C library (va_list as a pointer: x86-64 and i386)."""
+    text = (fmt or b"").decode(errors="replace")
+    if platform.machine() in ("x86_64", "AMD64", "i386", "i686") and fmt is not None:
+        buffer = ctypes.create_string_buffer(1024)
+        libc = ctypes.CDLL(None)
+        libc.vsnprintf.argtypes = (
+            ctypes.c_char_p,
+            ctypes.c_size_t,
+            ctypes.c_char_p,
+            ctypes.c_void_p,
+        )
+        libc.vsnprintf(buffer, len(buffer), fmt, args)
+        text = buffer.value.decode(errors="replace")
+    return f"ODE message {number}: {text}"
+
+
+def _on_message(number: int, fmt: bytes | None, args: int | None) -> None:
+    log.warn(_ode_text(number, fmt, args))
+
+
+def _on_error(number: int, fmt: bytes | None, args: int | None) -> None:
+    # ODE exits (errors) or aborts (debug checks) once this returns: say why in one line first.
+    sys.stderr.write(f"dentdemo: {_ode_text(number, fmt, args)}\n")
+    sys.stderr.flush()
+
+
+_handlers = (_HANDLER(_on_message), _HANDLER(_on_error))  # kept alive for ODE
+
+
+def _route_messages() -> None:
+    """ODE's messages become one-line dentdemo warnings; its fatal errors one line before exit."""
+    from odepy.common import loadOde
+
+    for name, handler in (
+        ("dSetMessageHandler", _handlers[0]),
+        ("dSetErrorHandler", _handlers[1]),
+        ("dSetDebugHandler", _handlers[1]),
+    ):
+        loadOde(name, None, _HANDLER)(handler)
 
 
 def _config_bytes(module: ModuleType) -> bytes:

@@ -1,0 +1,41 @@
+"""`dentdemo bench`: per-hit cost against map size (both update paths), the split by pass, frame
+times against scene size, and the memory of the maps."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from dentdemo.cli.args import command
+from dentdemo.outputs import check_output_file, write_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = command(
+        sub,
+        "bench",
+        "measure per-hit cost, both update paths, frame times, memory",
+        "dentdemo bench --quick --json bench.json --plot bench.png",
+    )
+    p.add_argument(
+        "--quick", action="store_true", help="a shorter run (under a minute on llvmpipe)"
+    )
+    p.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # the test suite's mode
+    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
+    p.add_argument("--plot", metavar="PNG", help="plot cost per hit against map size")
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from dentdemo.bench.run import plot, print_table, run_bench
+
+    json_path = check_output_file("--json", Path(args.json)) if args.json else None
+    plot_path = check_output_file("--plot", Path(args.plot)) if args.plot else None
+    mode = "tiny" if args.tiny else ("quick" if args.quick else "full")
+    result = run_bench(mode)
+    print_table(result)
+    if json_path is not None:
+        write_json(json_path, result)
+    if plot_path is not None:
+        plot(result, plot_path)
+    return 0

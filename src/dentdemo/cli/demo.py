@@ -1,0 +1,83 @@
+"""`dentdemo demo`: the interactive window, or a headless PNG when there is no display."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from dentdemo.cli.args import add_scene, command, float_in
+from dentdemo.errors import GLUnavailableError
+from dentdemo.outputs import check_output_file
+
+HEADLESS_FALLBACK = Path("dentdemo_demo.png")
+#: Simulated seconds the headless fallback renders when --exit-after is not given.
+FALLBACK_SECONDS = 3.0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = command(
+        sub,
+        "demo",
+        "the interactive ball-drop sandbox (a headless PNG without a display)",
+        "dentdemo demo --screenshot shot.png --exit-after 2",
+    )
+    add_scene(p)
+    p.add_argument(
+        "--screenshot",
+        metavar="PNG",
+        help="save the window's image after --exit-after seconds (default 3) and exit",
+    )
+    p.add_argument(
+        "--exit-after",
+        type=float_in(0.0, 3600.0),
+        metavar="SECONDS",
+        help="simulated seconds after which to exit (saving --screenshot)",
+    )
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    shot = Path(args.screenshot) if args.screenshot else None
+    if shot is not None:
+        check_output_file("--screenshot", shot)
+    exit_after = args.exit_after
+    if shot is not None and exit_after is None:
+        exit_after = FALLBACK_SECONDS  # a screenshot always ends the run
+    materials = load_materials(args.materials)
+    path = Path(args.scene)
+    scene = load_scene(path, materials)
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        return _headless_instead(args, path, exit_after, "no display (DISPLAY is not set)")
+    from dentdemo.app.window import DemoWindow
+
+    try:
+        window = DemoWindow(scene, materials)
+    except GLUnavailableError as exc:
+        return _headless_instead(args, path, exit_after, str(exc).removeprefix("dentdemo: "))
+    return window.run(shot, exit_after)
+
+
+def _headless_instead(
+    args: argparse.Namespace, path: Path, exit_after: float | None, why: str
+) -> int:
+    from dentdemo.app.headless import render_headless
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    out = Path(args.screenshot) if args.screenshot else HEADLESS_FALLBACK
+    check_output_file("--screenshot", out)
+    seconds = exit_after if exit_after is not None else FALLBACK_SECONDS
+    dt = load_scene(path, load_materials(args.materials)).physics.dt
+    frames = max(1, round(seconds / dt))
+    print(
+        f"dentdemo: {why}; rendering the same scene headless instead ({frames} frames) to {out}",
+        file=sys.stderr,
+    )
+    render_headless(path, args.materials, frames, out, (1280, 720))
+    print(f"wrote {out}")
+    return 0

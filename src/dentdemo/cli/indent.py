@@ -1,0 +1,131 @@
+"""`dentdemo indent`: a deterministic press with no physics, its maps and summary written to a
+folder."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from dentdemo.cli.args import command, float_in, int_in
+from dentdemo.errors import DentdemoError
+from dentdemo.outputs import check_output_dir
+
+MAP_SIDES = int_in(16, 8192)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = command(
+        sub,
+        "indent",
+        "press a tool into a target on the GPU, no physics",
+        "dentdemo indent --tool sphere --tool-size 0.05 --depth 0.002 --out press/",
+    )
+    p.add_argument(
+        "--tool", choices=("sphere", "box", "capsule"), default="sphere", help="tool shape"
+    )
+    p.add_argument(
+        "--tool-size",
+        type=float_in(0.0, 100.0, lo_open=True),
+        nargs="+",
+        default=[0.05],
+        metavar="M",
+        help="sphere radius; box edge (or x y z); capsule radius [length], metres",
+    )
+    p.add_argument(
+        "--target", choices=("plate", "box", "sphere"), default="plate", help="target shape"
+    )
+    p.add_argument(
+        "--target-size",
+        type=float_in(0.0, 100.0, lo_open=True),
+        nargs="+",
+        default=[1.0],
+        metavar="M",
+        help="plate side; box edge (or x y z); sphere radius, metres",
+    )
+    p.add_argument(
+        "--depth", type=float_in(0.0, 1.0), required=True, help="dent the target receives, m"
+    )
+    p.add_argument(
+        "--offset",
+        type=float_in(-100.0, 100.0),
+        nargs=2,
+        default=[0.0, 0.0],
+        metavar=("X", "Z"),
+        help="where on the target, metres from its centre",
+    )
+    p.add_argument(
+        "--normal",
+        type=float_in(-1e6, 1e6),
+        nargs=3,
+        default=[0.0, -1.0, 0.0],
+        metavar=("X", "Y", "Z"),
+        help="press direction (the way the tool moves)",
+    )
+    p.add_argument("--repeat", type=int_in(1, 10000), default=1, help="press this many times")
+    p.add_argument("--map-size", type=MAP_SIDES, default=512, help="target map side, texels")
+    p.add_argument(
+        "--tool-map-size",
+        type=MAP_SIDES,
+        default=None,
+        help="tool map side, texels (default: --map-size)",
+    )
+    p.add_argument("--tool-pattern", metavar="PNG", help="greyscale height pattern on the tool")
+    p.add_argument(
+        "--pattern-height",
+        type=float_in(0.0, 1.0),
+        default=0.002,
+        help="height of white in the pattern, m",
+    )
+    p.add_argument(
+        "--tool-depth", type=float_in(0.0, 1.0), default=0.0, help="dent the tool receives, m"
+    )
+    p.add_argument(
+        "--max-dent-depth",
+        type=float_in(0.0, 1.0, lo_open=True),
+        default=0.1,
+        help="deepest dent a map holds, m",
+    )
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from dentdemo.app.press import make_setup, run_presses, shape_from_args, write_outputs
+    from dentdemo.carve.surface import load_height_png
+    from dentdemo.gl.context import create_headless
+
+    direction = np.asarray(args.normal, dtype=np.float64)
+    if np.linalg.norm(direction) < 1e-9:
+        raise DentdemoError(f"--normal: must be a non-zero vector, got {args.normal}")
+    target_shape = shape_from_args(args.target, args.target_size, "target")
+    tool_shape = shape_from_args(args.tool, args.tool_size, "tool")
+    tool_map = args.tool_map_size or args.map_size
+    pattern = (
+        load_height_png(Path(args.tool_pattern), tool_map, args.pattern_height)
+        if args.tool_pattern
+        else None
+    )
+    out = Path(args.out)
+    check_output_dir("--out", out)
+    gl = create_headless()
+    try:
+        setup = make_setup(
+            gl,
+            target_shape,
+            tool_shape,
+            args.map_size,
+            tool_map,
+            tuple(args.offset),
+            direction,
+            args.max_dent_depth,
+            pattern,
+        )
+        times = run_presses(gl, setup, args.depth, args.tool_depth, args.repeat)
+        summary = write_outputs(gl, setup, out, args.depth, args.tool_depth, times)
+    finally:
+        gl.release()
+    print(json.dumps(summary, indent=2))
+    return 0

@@ -1,0 +1,72 @@
+"""`dentdemo render`: a scene simulated at its fixed dt and drawn headless (EGL) to PNG frames."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from dentdemo.cli.args import add_scene, command, int_in, size_wxh
+from dentdemo.errors import DentdemoError
+from dentdemo.outputs import check_output_dir, check_output_file
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = command(
+        sub,
+        "render",
+        "simulate a scene headless (EGL) and write PNG frames",
+        "dentdemo render --frames 240 --size 1280x720 --out ball_drop.png",
+    )
+    add_scene(p)
+    p.add_argument(
+        "--frames", type=int_in(1, 10**7), default=120, help="simulation frames at the scene's dt"
+    )
+    p.add_argument(
+        "--out", required=True, metavar="PNG", help="output image; %%04d in it writes every frame"
+    )
+    p.add_argument("--size", type=size_wxh, default="1280x720", metavar="WxH", help="pixels")
+    p.add_argument(
+        "--maps-dir", metavar="DIR", help="also write every body's height and normal maps"
+    )
+    p.add_argument("--no-dents", action="store_true", help="detect impacts but carve nothing")
+    p.add_argument("--parallax", action="store_true", help="parallax occlusion mapping")
+    p.add_argument(
+        "--view", type=int, choices=(0, 1, 2), default=0, help="0 shaded, 1 height, 2 normals"
+    )
+    p.set_defaults(handler=run)
+
+
+def frame_pattern(out: Path) -> bool:
+    """True when `out` names one file per frame (%d-style); a bad pattern is an error."""
+    if "%" not in out.name:
+        return False
+    try:
+        out.name % 0
+    except (TypeError, ValueError):
+        raise DentdemoError(f"--out: '{out.name}' has a bad % pattern (use %04d)") from None
+    return True
+
+
+def run(args: argparse.Namespace) -> int:
+    from dentdemo.app.headless import render_headless
+    from dentdemo.render.renderer import RenderOptions
+
+    out = Path(args.out)
+    every = frame_pattern(out)
+    check_output_file("--out", out.with_name(out.name % 0) if every else out)
+    maps_dir = Path(args.maps_dir) if args.maps_dir else None
+    if maps_dir is not None:
+        check_output_dir("--maps-dir", maps_dir)
+    render_headless(
+        Path(args.scene),
+        args.materials,
+        args.frames,
+        out,
+        args.size,
+        maps_dir,
+        denting=not args.no_dents,
+        options=RenderOptions(parallax=args.parallax, view=args.view),
+        every_frame=every,
+    )
+    print(f"wrote {args.out}")
+    return 0

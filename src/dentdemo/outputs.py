@@ -1,0 +1,123 @@
+"""Every file dentdemo writes goes through here: output paths are checked before any work starts,
+and each file is written atomically (a temporary file in the same folder, then a rename), so an
+error or Ctrl-C never leaves a half-written file or replaces a good one with a broken one."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import re
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, BinaryIO
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.errors import DentdemoError
+
+#: A body id that is safe as a file name on every platform: letters, digits, '_', '-', '.',
+#: starting with a letter or digit (no path separators, no '..', no hidden files).
+SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+
+
+def is_safe_name(name: str) -> bool:
+    return bool(SAFE_NAME.fullmatch(name)) and ".." not in name
+
+
+def _why(exc: OSError) -> str:
+    return exc.strerror or str(exc)
+
+
+def check_output_dir(flag: str, path: Path) -> Path:
+    """A folder that exists and is writable, or that can be made (its nearest existing ancestor is
+    a writable folder). Checked before any work; nothing is created until a file is written."""
+    if path.exists():
+        if not path.is_dir():
+            raise DentdemoError(f"{flag}: '{path}' exists and is not a folder")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise DentdemoError(f"{flag}: folder '{path}' is not writable")
+        return path
+    ancestor = path.absolute().parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise DentdemoError(f"{flag}: cannot create '{path}': '{ancestor}' is not a folder")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise DentdemoError(f"{flag}: cannot create '{path}': folder '{ancestor}' is not writable")
+    return path
+
+
+def check_output_file(flag: str, path: Path) -> Path:
+    """A file path whose folder exists (or can be made) and is writable, and that is not a
+    folder itself; checked before any work."""
+    if str(path) == "" or path.name in ("", ".", ".."):
+        raise DentdemoError(f"{flag}: '{path}' is not a file name")
+    if path.is_dir():
+        raise DentdemoError(f"{flag}: '{path}' is a folder, not a file")
+    check_output_dir(flag, path.parent)
+    if path.exists() and not os.access(path, os.W_OK):
+        raise DentdemoError(f"{flag}: '{path}' is not writable")
+    return path
+
+
+def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
+    """Call `write` on a temporary file beside `path`, then rename it over `path`."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DentdemoError(f"{path.parent}: cannot create folder ({_why(exc)})") from None
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    tmp = Path(tmp_name)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            write(handle)
+        os.chmod(tmp, 0o644)
+        tmp.replace(path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise DentdemoError(f"{path}: cannot write ({_why(exc)})") from None
+    except BaseException:  # Ctrl-C or a bug: no temporary file left behind
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_bytes(path: Path, data: bytes) -> Path:
+    return write_atomic(path, lambda handle: handle.write(data))
+
+
+def write_text(path: Path, text: str) -> Path:
+    return write_bytes(path, text.encode("utf-8"))
+
+
+def write_json(path: Path, payload: Any) -> Path:
+    return write_text(path, json.dumps(payload, indent=2) + "\n")
+
+
+def write_npy(path: Path, array: NDArray[Any]) -> Path:
+    buffer = io.BytesIO()
+    np.save(buffer, array)
+    return write_bytes(path, buffer.getvalue())
+
+
+def write_png(path: Path, pixels: NDArray[Any]) -> Path:
+    """An image array (rows top-down; uint8 RGB/RGBA/grey or uint16 grey) as a PNG."""
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(pixels)).save(buffer, format="PNG")
+    return write_bytes(path, buffer.getvalue())
+
+
+def write_normal_png(path: Path, normal: NDArray[np.uint8]) -> Path:
+    """An RGBA8 normal map (row 0 is v = 0) as an RGB PNG, top row = v = 1 (image order)."""
+    return write_png(path, normal[::-1, :, :3])
+
+
+def write_height_png(path: Path, height: NDArray[np.float32], max_depth: float) -> Path:
+    """Heights as 16-bit greyscale: 65535 = pristine (0 m), 0 = -max_depth; top row is v = 1."""
+    scaled = np.clip(1.0 + height / max_depth, 0.0, 1.0) * 65535.0
+    return write_png(path, np.round(scaled[::-1]).astype(np.uint16))
