@@ -115,7 +115,7 @@ class Simulation:
         self.last_impacts: list[Impact] = []
         #: Where the most recent carves were, world metres (the contact debug view).
         self.carved_points: deque[NDArray[np.float64]] = deque(maxlen=CARVED_POINTS_KEPT)
-        self._ball_count = 0
+        self.ball_count = 0
         self._time_debt = 0.0
         self.bodies: dict[str, SimBody] = {}
         self.world: PhysicsWorld = build_world(scene)
@@ -146,11 +146,11 @@ class Simulation:
         """Add a ball (the demo's click and throw); returns its id."""
         if not (math.isfinite(radius) and radius > 0):
             raise ValueError(f"ball radius must be positive, got {radius}")
-        self._ball_count += 1
-        body_id = f"ball_{self._ball_count}"
+        self.ball_count += 1
+        body_id = f"ball_{self.ball_count}"
         while body_id in self.bodies:
-            self._ball_count += 1
-            body_id = f"ball_{self._ball_count}"
+            self.ball_count += 1
+            body_id = f"ball_{self.ball_count}"
         spec = BodySpec(
             id=body_id,
             shape=ShapeSpec("sphere", radius=radius),
@@ -272,7 +272,7 @@ class Simulation:
         self.queue.clear()
         self.carved_points.clear()
         self.stats = SimStats()
-        self._ball_count = 0
+        self.ball_count = 0
         self.world = build_world(self.scene)
         for spec in self.scene.bodies:
             self._add_render_body(spec)

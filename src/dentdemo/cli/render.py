@@ -33,6 +33,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--view", type=int, choices=(0, 1, 2), default=0, help="0 shaded, 1 height, 2 normals"
     )
+    p.add_argument(
+        "--save-state",
+        metavar="DIR",
+        help="after the last frame, save every body's maps and the physics state to DIR",
+    )
+    p.add_argument(
+        "--load-state",
+        metavar="DIR",
+        help="resume a state saved from the same scene; --frames then continues it",
+    )
     p.set_defaults(handler=run)
 
 
@@ -57,6 +67,9 @@ def run(args: argparse.Namespace) -> int:
     maps_dir = Path(args.maps_dir) if args.maps_dir else None
     if maps_dir is not None:
         check_output_dir("--maps-dir", maps_dir)
+    save_state = Path(args.save_state) if args.save_state else None
+    if save_state is not None:
+        check_output_dir("--save-state", save_state)
     render_headless(
         Path(args.scene),
         args.materials,
@@ -67,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
         denting=not args.no_dents,
         options=RenderOptions(parallax=args.parallax, view=args.view),
         every_frame=every,
+        load_state=Path(args.load_state) if args.load_state else None,
+        save_state=save_state,
     )
     print(f"wrote {args.out}")
     return 0

@@ -23,6 +23,13 @@ REQUIRED_SYMBOLS = (
     "dCloseODE",
     "dGetConfiguration",
     "dRandSetSeed",
+    "dRandGetSeed",
+    "dRfromQ",
+    "dSpaceAdd",
+    "dSpaceRemove",
+    "dSpaceGetNumGeoms",
+    "dSpaceGetGeom",
+    "dBodyGetRotation",
     "dWorldCreate",
     "dWorldDestroy",
     "dWorldSetGravity",
@@ -188,6 +195,7 @@ class FastCalls:
         self.create_contact = loadOde("dJointCreateContact", vp, vp, vp, vp)
         self.attach = loadOde("dJointAttach", None, vp, vp, vp)
         self.point_vel = loadOde("dBodyGetPointVel", None, vp, ode.dReal, ode.dReal, ode.dReal, vp)
+        self.r_from_q = loadOde("dRfromQ", None, vp, vp)  # (dMatrix3 R out, dQuaternion q)
 
 
 fast = FastCalls()

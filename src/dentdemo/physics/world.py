@@ -91,6 +91,19 @@ class _Body:
     body_addr: int | None = None  # the dBodyID as an integer, for the hot path
 
 
+@dataclass(frozen=True)
+class WorldState:
+    """A PhysicsWorld as `snapshot` saw it (floats as ODE stores them, metres, m/s, rad/s)."""
+
+    time: float
+    step_index: int
+    seed: int
+    #: Body ids in the collision space's order.
+    order: list[str]
+    #: Dynamic bodies: (centre of mass, quaternion w x y z, linear, angular velocity).
+    bodies: dict[str, tuple[list[float], list[float], list[float], list[float]]]
+
+
 def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
     w, x, y, z = q
     return np.array(
@@ -138,6 +151,7 @@ class PhysicsWorld:
         self._space_addr = _addr(self.space)
         self._pair_surface: dict[tuple[int, int], tuple[float, float]] = {}
         self._pending: dict[tuple[str, str], Impact] = {}
+        self._callback_error: BaseException | None = None
         self._vel_buffer = (ode.dReal * 4)()
         self._vel_addr = ctypes.addressof(self._vel_buffer)
 
@@ -300,6 +314,10 @@ class PhysicsWorld:
         sub_dt = self.spec.dt / self.spec.substeps
         for _ in range(self.spec.substeps):
             fast.space_collide(self._space_addr, None, self._callback)
+            if self._callback_error is not None:  # Ctrl-C or a bug inside the callback
+                error, self._callback_error = self._callback_error, None
+                ode.dJointGroupEmpty(self.contact_group)
+                raise error
             ode.dWorldQuickStep(self.world, sub_dt)
             ode.dJointGroupEmpty(self.contact_group)
             self.time += sub_dt
@@ -340,7 +358,17 @@ class PhysicsWorld:
                 self.remove_body(body_id)
                 self.removed.append(body_id)
 
-    def _near(self, _data: int | None, g1: int, g2: int) -> None:
+    def _near(self, data: int | None, g1: int, g2: int) -> None:
+        """ODE's near callback. An exception here (Ctrl-C above all) would be printed and
+        swallowed by ctypes: keep it, skip the remaining pairs, and raise it after the collide."""
+        if self._callback_error is not None:
+            return
+        try:
+            self._near_pair(g1, g2)
+        except BaseException as exc:  # noqa: BLE001 - re-raised by step()
+            self._callback_error = exc
+
+    def _near_pair(self, g1: int, g2: int) -> None:
         r1 = self._by_geom.get(g1)
         r2 = self._by_geom.get(g2)
         if r1 is None or r2 is None or (r1.body is None and r2.body is None):
@@ -427,6 +455,55 @@ class PhysicsWorld:
         out = self._vel_buffer
         fast.point_vel(record.body_addr, x, y, z, self._vel_addr)
         return (out[0], out[1], out[2])
+
+    # -- saving and resuming ---------------------------------------------------------------------
+    def snapshot(self) -> WorldState:
+        """Everything a resumed run needs to continue bit for bit: ODE's own state of each body
+        (centre of mass, quaternion, velocities as stored), the order of the collision space
+        (ODE moves geoms that moved to its front; collision order drives QuickStep), ODE's
+        random seed (QuickStep's constraint order), the time and the step count."""
+        bodies = {}
+        for body_id, record in self.bodies.items():
+            if record.body is None:
+                continue
+            b = record.body
+            bodies[body_id] = (
+                [ode.dBodyGetPosition(b)[i] for i in range(3)],
+                [ode.dBodyGetQuaternion(b)[i] for i in range(4)],
+                [ode.dBodyGetLinearVel(b)[i] for i in range(3)],
+                [ode.dBodyGetAngularVel(b)[i] for i in range(3)],
+            )
+        by_geom = {_addr(r.geom): body_id for body_id, r in self.bodies.items()}
+        order = [
+            by_geom[_addr(ode.dSpaceGetGeom(self.space, i))]
+            for i in range(ode.dSpaceGetNumGeoms(self.space))
+        ]
+        return WorldState(self.time, self.step_index, int(ode.dRandGetSeed()), order, bodies)
+
+    def restore(self, state: WorldState) -> None:
+        """Continue from `state` (same bodies, as `snapshot` listed them)."""
+        missing = set(state.order) ^ set(self.bodies)
+        if missing:
+            raise ValueError(f"bodies differ from the saved world: {sorted(missing)}")
+        for body_id, (pos, quat, lin, ang) in state.bodies.items():
+            b = self.bodies[body_id].body
+            ode.dBodySetPosition(b, *pos)
+            ode.dBodySetQuaternion(b, (ode.dReal * 4)(*quat))
+            # dBodySetQuaternion normalises again, which can move the last bit: store the saved
+            # quaternion as it was and its rotation matrix as ODE's step makes it.
+            q = ode.dBodyGetQuaternion(b)
+            for i in range(4):
+                q[i] = quat[i]
+            fast.r_from_q(_addr(ode.dBodyGetRotation(b)), _addr(q))
+            ode.dBodySetLinearVel(b, *lin)
+            ode.dBodySetAngularVel(b, *ang)
+        for body_id in reversed(state.order):  # each re-added geom goes to the space's front
+            geom = self.bodies[body_id].geom
+            ode.dSpaceRemove(self.space, geom)
+            ode.dSpaceAdd(self.space, geom)
+        ode.dRandSetSeed(state.seed)
+        self.time = state.time
+        self.step_index = state.step_index
 
     def close(self) -> None:
         for body_id in list(self.bodies):

@@ -1,0 +1,141 @@
+"""Saving and resuming damage (`render --save-state/--load-state`): a run stopped, saved, loaded
+and continued is bit-identical to a run that never stopped; a bad state folder gets one line and
+changes nothing."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from dentdemo.app.headless import render_headless
+from dentdemo.errors import DentdemoError
+from dentdemo.resources import assets_dir
+
+BALL_DROP = assets_dir() / "scenes" / "ball_drop.toml"
+SIZE = (320, 180)
+
+
+def _heights(folder: Path) -> dict[str, np.ndarray]:
+    return {p.name: np.load(p) for p in sorted(folder.glob("*_height.npy"))}
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """240 frames in one run; 120 frames, save, load, 120 more."""
+    root = tmp_path_factory.mktemp("state")
+    render_headless(BALL_DROP, [], 240, root / "whole.png", SIZE, maps_dir=root / "whole")
+    render_headless(BALL_DROP, [], 120, root / "half.png", SIZE, save_state=root / "saved")
+    render_headless(
+        BALL_DROP,
+        [],
+        120,
+        root / "resumed.png",
+        SIZE,
+        maps_dir=root / "resumed",
+        load_state=root / "saved",
+    )
+    return root
+
+
+def test_resumed_run_is_bit_identical(runs):
+    whole, resumed = _heights(runs / "whole"), _heights(runs / "resumed")
+    assert len(whole) == 14 and whole.keys() == resumed.keys()
+    dented = 0
+    for name in whole:
+        assert whole[name].dtype == np.float32
+        assert np.array_equal(whole[name], resumed[name]), name
+        dented += int((whole[name] < -1e-6).any())
+    assert dented >= 8  # the comparison covers real damage, not pristine maps
+    a = np.asarray(Image.open(runs / "whole.png"))
+    b = np.asarray(Image.open(runs / "resumed.png"))
+    assert a.shape == (180, 320, 3) and np.array_equal(a, b)
+    # ...and the saved half-way state is not the end state (the resumed frames did something).
+    half = np.asarray(Image.open(runs / "half.png"))
+    assert not np.array_equal(half, a)
+
+
+def test_state_folder_holds_what_the_format_says(runs):
+    state = json.loads((runs / "saved" / "state.json").read_text())
+    assert state["format"] == "dentdemo-state" and state["version"] == 1
+    dt = 1.0 / 60.0  # ball_drop.toml: dt = 1/60 s (checked below against the scene)
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    assert load_scene(BALL_DROP, load_materials()).physics.dt == pytest.approx(dt)
+    assert state["world"]["time"] == pytest.approx(120 * dt, rel=1e-9)
+    assert state["world"]["step_index"] == 120
+    for body_id, entry in state["maps"].items():
+        height = np.load(runs / "saved" / entry["file"])
+        assert height.dtype == np.float32 and list(height.shape) == entry["shape"], body_id
+
+
+def _broken(runs: Path, tmp_path: Path, how: str) -> Path:
+    folder = tmp_path / how
+    shutil.copytree(runs / "saved", folder)
+    state_file = folder / "state.json"
+    state = json.loads(state_file.read_text())
+    if how == "truncated_map":
+        target = folder / "steel_plate.npy"
+        target.write_bytes(target.read_bytes()[:-100])
+    elif how == "missing_map":
+        (folder / "lead_plate.npy").unlink()
+    elif how == "version":
+        state["version"] = 99
+    elif how == "scene":
+        state["scene"]["sha256"] = "0" * 64
+    elif how == "not_json":
+        state_file.write_text("{ not json")
+        return folder
+    elif how == "no_state":
+        state_file.unlink()
+        return folder
+    elif how == "unknown_body":
+        state["world"]["order"].append("ghost")
+    state_file.write_text(json.dumps(state))
+    return folder
+
+
+@pytest.mark.parametrize(
+    "how,fragment",
+    [
+        ("truncated_map", "steel_plate.npy"),
+        ("missing_map", "lead_plate.npy"),
+        ("version", "version is 99"),
+        ("scene", "differs from"),
+        ("not_json", "state.json"),
+        ("no_state", "state.json"),
+        ("unknown_body", "ghost"),
+    ],
+)
+def test_bad_state_is_one_line_and_changes_nothing(gl, runs, tmp_path, how, fragment):
+    from dentdemo.app.simulation import Simulation
+    from dentdemo.app.state import load_state
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    folder = _broken(runs, tmp_path, how)
+    lib = load_materials()
+    sim = Simulation(gl, load_scene(BALL_DROP, lib), lib)
+    try:
+        for _ in range(3):
+            sim.step()
+        before = {k: gl.read(b.maps.height).copy() for k, b in sim.bodies.items()}
+        poses = {k: sim.world.pose(k) for k in sim.bodies}
+        time = sim.world.time
+        with pytest.raises(DentdemoError) as info:
+            load_state(sim, folder)
+        message = str(info.value)
+        assert fragment in message and "\n" not in message
+        assert sim.world.time == time
+        for k, b in sim.bodies.items():
+            assert np.array_equal(gl.read(b.maps.height), before[k])
+            assert all(
+                np.array_equal(x, y) for x, y in zip(sim.world.pose(k), poses[k], strict=True)
+            )
+    finally:
+        sim.close()
