@@ -139,3 +139,39 @@ def test_bad_state_is_one_line_and_changes_nothing(gl, runs, tmp_path, how, frag
             )
     finally:
         sim.close()
+
+
+def test_demo_save_and_load_keys_restore_added_bodies(gl, tmp_path):
+    """The demo's F5/F9 (panel buttons): a ball dropped by the user is saved with its damage and
+    comes back on load, after the run went on and the user dropped another."""
+    from dentdemo.app.controller import DemoController
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    lib = load_materials()
+    app = DemoController(gl, load_scene(BALL_DROP, lib), lib, (160, 90))
+    try:
+        dropped = app.drop_ball(0.0, 0.0)
+        assert dropped is not None
+        for _ in range(90):
+            app.sim.step()
+        assert app.save_state(tmp_path / "s"), app.message
+        saved_heights = {k: gl.read(b.maps.height).copy() for k, b in app.sim.bodies.items()}
+        saved_pose = app.sim.world.pose(dropped)
+        saved_time = app.sim.world.time
+        app.drop_ball(0.3, 0.1)
+        for _ in range(30):
+            app.sim.step()
+        assert app.load_state(tmp_path / "s"), app.message
+        assert set(app.sim.bodies) == set(saved_heights)  # the second ball is gone
+        assert app.sim.world.time == saved_time
+        assert all(
+            np.array_equal(a, b)
+            for a, b in zip(app.sim.world.pose(dropped), saved_pose, strict=True)
+        )
+        for k, b in app.sim.bodies.items():
+            assert np.array_equal(gl.read(b.maps.height), saved_heights[k]), k
+        assert not app.load_state(tmp_path / "nothing_here")
+        assert "nothing_here" in app.message
+    finally:
+        app.close()

@@ -17,6 +17,8 @@ from dentdemo.render.camera import OrbitCamera
 from dentdemo.render.renderer import Renderer, RenderOptions
 
 DROP_HEIGHT = 1.0  # m above the clicked point
+#: Where the demo's save-state key and button write, and load-state reads (a folder).
+STATE_DIR = Path("dentdemo_state")
 
 
 @dataclass
@@ -45,6 +47,8 @@ class DemoController:
         self.panel = PanelState()
         self.paused = False
         self._plates = 0
+        #: The last save/load outcome, one line for the panel and the window title.
+        self.message = ""
 
     # -- simulation ----------------------------------------------------------------------------
     def update(self, wall_seconds: float) -> int:
@@ -64,6 +68,32 @@ class DemoController:
 
     def set_time_scale(self, scale: float) -> None:
         self.sim.time_scale = float(np.clip(scale, 0.0, 4.0))
+
+    def save_state(self, directory: Path = STATE_DIR) -> bool:
+        """Save every body's maps and the physics state (F5, panel "save state")."""
+        from dentdemo.app.state import save_state
+        from dentdemo.errors import DentdemoError
+
+        try:
+            save_state(self.sim, directory)
+        except DentdemoError as exc:
+            self.message = str(exc)
+            return False
+        self.message = f"saved to {directory}/ at t = {self.sim.world.time:.2f} s"
+        return True
+
+    def load_state(self, directory: Path = STATE_DIR) -> bool:
+        """Resume a saved state (F9, panel "load state"); a bad one changes nothing."""
+        from dentdemo.app.state import load_state
+        from dentdemo.errors import DentdemoError
+
+        try:
+            load_state(self.sim, directory)
+        except DentdemoError as exc:
+            self.message = str(exc)
+            return False
+        self.message = f"loaded {directory}/ at t = {self.sim.world.time:.2f} s"
+        return True
 
     # -- picking -------------------------------------------------------------------------------
     def ground_point(self, ndc_x: float, ndc_y: float) -> np.ndarray | None:

@@ -82,6 +82,11 @@ def shape_mesh(shape: ShapeSpec) -> Mesh:
     return primitives.plate(GROUND_PROXY_SIDE)  # the ground plane
 
 
+def map_side(spec: BodySpec, mesh: Mesh) -> int:
+    """Side of a body's square maps, texels: a body that takes no dents gets a 16² stand-in."""
+    return map_size_for(mesh, spec.texels_per_metre) if spec.dentable else 16
+
+
 def pose_matrix(position: NDArray, quaternion: NDArray) -> NDArray[np.float64]:
     m = np.eye(4)
     m[:3, :3] = quat_to_matrix(np.asarray(quaternion, dtype=np.float64))
@@ -126,7 +131,7 @@ class Simulation:
     def _add_render_body(self, spec: BodySpec) -> SimBody:
         mesh = shape_mesh(spec.shape)
         gpu = GpuMesh(self.gl, mesh)
-        size = map_size_for(mesh, spec.texels_per_metre) if spec.dentable else 16
+        size = map_side(spec, mesh)
         start = None
         if spec.dentable and spec.bump_map:
             start = load_height_png(Path(spec.bump_map), size, spec.bump_height)

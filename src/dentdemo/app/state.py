@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from dentdemo import outputs
-from dentdemo.app.simulation import CarveRequest, Simulation
+from dentdemo.app.simulation import CarveRequest, Simulation, map_side, shape_mesh
 from dentdemo.carve.surface import rebuild_all_normals
 from dentdemo.errors import DentdemoError
 from dentdemo.model.scene import BodySpec, ShapeSpec
@@ -139,6 +139,13 @@ class _Bad(Exception):
     pass
 
 
+def _map_side(sim: Simulation, spec: BodySpec) -> int:
+    body = sim.bodies.get(spec.id)
+    if body is not None and body.spec == spec:
+        return int(body.maps.size[0])
+    return map_side(spec, shape_mesh(spec.shape))
+
+
 def _read_state(sim: Simulation, directory: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """state.json and the height maps, every check done before anything is changed."""
     path = directory / STATE_FILE
@@ -163,11 +170,13 @@ def _read_state(sim: Simulation, directory: Path) -> tuple[dict[str, Any], dict[
             )
         heights: dict[str, np.ndarray] = {}
         added = {entry["id"] for entry in payload["added_bodies"]}
+        # Map side of every body the state can hold: the scene's and the added ones.
+        expected = {spec.id: _map_side(sim, spec) for spec in sim.scene.bodies}
         for entry in payload["added_bodies"]:
-            if not outputs.is_safe_name(str(entry["id"])):
-                raise _Bad(f"added body id {entry['id']!r} is not a safe name")
+            if not outputs.is_safe_name(str(entry["id"])) or entry["id"] in expected:
+                raise _Bad(f"added body id {entry['id']!r} is not a safe, new name")
             try:
-                _spec(sim, entry)
+                expected[entry["id"]] = _map_side(sim, _spec(sim, entry))
             except DentdemoError as exc:
                 raise _Bad(f"added body '{entry['id']}': {exc}") from None
         for body_id, info in payload["maps"].items():
@@ -185,11 +194,11 @@ def _read_state(sim: Simulation, directory: Path) -> tuple[dict[str, Any], dict[
                 raise _Bad(f"{file.name}: {height.dtype} {height.shape}, expected {info['shape']}")
             if not np.isfinite(height).all():
                 raise _Bad(f"{file.name}: holds NaN or infinity")
-            body = sim.bodies.get(body_id)
-            if body is not None and (height.shape[1], height.shape[0]) != tuple(body.maps.size):
-                raise _Bad(f"{file.name}: {height.shape} does not fit body '{body_id}'")
-            if body is None and body_id not in added:
+            size = expected.get(body_id)
+            if size is None:
                 raise _Bad(f"map for '{body_id}', a body neither in the scene nor added")
+            if (height.shape[1], height.shape[0]) != (size, size):
+                raise _Bad(f"{file.name}: {height.shape} does not fit body '{body_id}' ({size}²)")
             heights[body_id] = height
         world = payload["world"]
         for body_id in world["order"]:
@@ -205,8 +214,11 @@ def _read_state(sim: Simulation, directory: Path) -> tuple[dict[str, Any], dict[
 
 
 def load_state(sim: Simulation, directory: Path) -> None:
-    """Resume from `directory`: bodies, maps (normals rebuilt on the GPU), physics, queue."""
+    """Resume from `directory`: bodies, maps (normals rebuilt on the GPU), physics, queue. The
+    simulation is reset to its scene first, so loading in a running demo equals loading in a new
+    process; a bad state raises before anything changes."""
     payload, heights = _read_state(sim, directory)
+    sim.reset()
     world = payload["world"]
     keep = set(world["order"])
     for body_id in [b for b in sim.bodies if b not in keep]:

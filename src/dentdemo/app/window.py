@@ -97,6 +97,8 @@ class DemoWindow:
             glfw.KEY_N: self.app.single_step,
             glfw.KEY_R: self.app.reset,
             glfw.KEY_P: self._screenshot_key,
+            glfw.KEY_F5: self.app.save_state,
+            glfw.KEY_F9: self.app.load_state,
             glfw.KEY_1: lambda: self.app.set_view(0),
             glfw.KEY_2: lambda: self.app.set_view(1),
             glfw.KEY_3: lambda: self.app.set_view(2),
@@ -140,6 +142,13 @@ class DemoWindow:
         imgui.same_line()
         if imgui.button("step"):
             app.single_step()
+        if imgui.button("save state (F5)"):
+            app.save_state()
+        imgui.same_line()
+        if imgui.button("load state (F9)"):
+            app.load_state()
+        if app.message:
+            imgui.text_wrapped(app.message)
         imgui.separator()
         _, app.options.view = imgui.combo(
             "view", app.options.view, ["shaded", "height map", "normal map"]
