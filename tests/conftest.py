@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import os
+import shutil
+import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -54,3 +57,29 @@ def tmp_toml(tmp_path):
         return path
 
     return write
+
+
+def _xvfb_display():
+    if shutil.which("Xvfb") is None:
+        return None
+    display = f":{90 + os.getpid() % 500}"
+    proc = subprocess.Popen(
+        ["Xvfb", display, "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    time.sleep(1.0)
+    if proc.poll() is not None:
+        return None
+    return display, proc
+
+
+@pytest.fixture(scope="session")
+def xvfb():
+    started = _xvfb_display()
+    if started is None:
+        pytest.skip("Xvfb is not installed (Debian package xvfb): window and GLX tests need it")
+    display, proc = started
+    yield display
+    proc.terminate()
+    proc.wait(timeout=10)

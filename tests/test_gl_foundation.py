@@ -1,5 +1,6 @@
 """GL context, the shader loader, and an EGL smoke test."""
 
+import os
 import subprocess
 import sys
 
@@ -145,3 +146,33 @@ def test_compile_error_in_main_file_after_include(gl, shader_tree):
     )
     with pytest.raises(ShaderError, match=r"f.frag:4:"):
         lib.program(gl.ctx, "v.vert", "f.frag")
+
+
+def test_glx_backend_under_xvfb(xvfb):
+    """DENTDEMO_GL_BACKEND=glx makes a GLX context on an X display (here Xvfb) and runs a press."""
+    import subprocess
+    import sys
+
+    code = (
+        "from dentdemo.gl.context import create_headless;"
+        "gl = create_headless();"
+        "print(gl.backend, gl.ctx.version_code)"
+    )
+    env = {**os.environ, "DISPLAY": xvfb, "DENTDEMO_GL_BACKEND": "glx"}
+    run = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert run.returncode == 0, run.stderr
+    backend, version = run.stdout.split()
+    assert backend == "glx" and int(version) >= 330
+
+
+def test_glx_backend_without_display_is_one_line(monkeypatch):
+    from dentdemo.errors import GLUnavailableError
+    from dentdemo.gl.context import create_headless
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    with pytest.raises(GLUnavailableError) as info:
+        create_headless("glx")
+    assert "DISPLAY" in str(info.value) and "libglx-mesa0" in str(info.value)
+    assert "\n" not in str(info.value)

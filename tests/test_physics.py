@@ -226,10 +226,10 @@ position = [0, 1, 0]
     [
         (
             SCENE_OK.replace("radius = 0.05", "radius = 0"),
-            "[body.ball] key 'radius' = 0: must be > 0",
+            "[body.ball] key 'radius' = 0: must be >= 0.001",
         ),
         (SCENE_OK.replace("radius = 0.05", "radius = nan"), "key 'radius' = nan: must be finite"),
-        (SCENE_OK.replace("radius = 0.05", "radius = -1"), "must be > 0"),
+        (SCENE_OK.replace("radius = 0.05", "radius = -1"), "must be >= 0.001"),
         (
             SCENE_OK.replace('shape = "sphere"', 'shape = "torus"'),
             "key 'shape' = 'torus': must be one of",

@@ -4,9 +4,6 @@ window under Xvfb, and the panel's actions through the controller API."""
 from __future__ import annotations
 
 import os
-import shutil
-import subprocess
-import time
 from pathlib import Path
 
 import numpy as np
@@ -178,32 +175,6 @@ def test_impact_queue_never_drops_a_hit(gl):
         sim.step()
     assert sim.stats.hits >= total_requests > 10
     sim.close()
-
-
-def _xvfb_display():
-    if shutil.which("Xvfb") is None:
-        return None
-    display = f":{90 + os.getpid() % 500}"
-    proc = subprocess.Popen(
-        ["Xvfb", display, "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    time.sleep(1.0)
-    if proc.poll() is not None:
-        return None
-    return display, proc
-
-
-@pytest.fixture(scope="module")
-def xvfb():
-    started = _xvfb_display()
-    if started is None:
-        pytest.skip("Xvfb is not installed (Debian package xvfb): the real-window test needs it")
-    display, proc = started
-    yield display
-    proc.terminate()
-    proc.wait(timeout=10)
 
 
 def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):

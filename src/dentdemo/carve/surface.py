@@ -200,10 +200,18 @@ def load_height_png(path: Path, size: int, amplitude: float) -> np.ndarray:
         raise DentdemoError(f"{path}: bump height must be a finite number >= 0, got {amplitude}")
     try:
         with Image.open(path) as img:
-            grey = img.convert("F").resize((size, size), Image.Resampling.BILINEAR)
-    except OSError as exc:
-        raise DentdemoError(f"{path}: cannot read the height image ({exc})") from None
-    data = np.asarray(grey, dtype=np.float32)[::-1] / 255.0
+            img.load()
+            if img.mode in ("I;16", "I;16B", "I;16L", "I"):  # 16-bit greyscale: white is 65535
+                white, grey = 65535.0, img.convert("F")
+            elif img.mode == "F":  # floating-point greyscale (TIFF): white is 1
+                white, grey = 1.0, img
+            else:  # 8-bit grey, colour (luminance) or palette: white is 255
+                white, grey = 255.0, img.convert("L").convert("F")
+            grey = grey.resize((size, size), Image.Resampling.BILINEAR)
+    except (OSError, ValueError, Image.DecompressionBombError) as exc:
+        detail = " ".join(str(exc).split())[:160]
+        raise DentdemoError(f"{path}: cannot read the height image ({detail})") from None
+    data = np.clip(np.asarray(grey, dtype=np.float32)[::-1] / white, 0.0, 1.0)
     return np.ascontiguousarray(data * amplitude, dtype=np.float32)
 
 

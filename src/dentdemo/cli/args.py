@@ -92,7 +92,7 @@ def add_scene(parser: argparse.ArgumentParser, required: bool = False) -> None:
 def add_backend(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--backend",
-        choices=("egl",),
+        choices=("egl", "glx"),
         default=None,
         help="headless GL backend (default: $DENTDEMO_GL_BACKEND, else egl)",
     )

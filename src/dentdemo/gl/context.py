@@ -18,10 +18,17 @@ from dentdemo.errors import GLUnavailableError
 
 REQUIRED_VERSION = 330
 HEADLESS_BACKENDS = ("egl", "glx")
-_INSTALL_HINT = (
-    "install an OpenGL 3.3 driver with EGL (Debian: apt-get install libegl1 libegl-mesa0 "
-    "libgl1-mesa-dri)"
-)
+#: glcontext's names for them: its default on Linux (no name) is a GLX context on an X display.
+_GLCONTEXT_BACKEND: dict[str, str | None] = {"egl": "egl", "glx": None}
+#: What to install for each way of making a context (Debian packages).
+_INSTALL_HINTS = {
+    "egl": "install an OpenGL 3.3 driver with EGL (Debian: apt-get install libegl1 libegl-mesa0 "
+    "libgl1-mesa-dri)",
+    "glx": "run under an X display (Xvfb works) with an OpenGL 3.3 driver with GLX (Debian: "
+    "apt-get install libgl1 libglx-mesa0 libgl1-mesa-dri)",
+    "glfw": "run under an X display with an OpenGL 3.3 driver (Debian: apt-get install libgl1 "
+    "libglx-mesa0 libgl1-mesa-dri)",
+}
 
 
 @dataclass
@@ -148,12 +155,16 @@ def create_headless(backend: str | None = None) -> GLContext:
     """A standalone context with no window (EGL by default: Mesa llvmpipe where there is no GPU)."""
     name = headless_backend(backend)
     try:
-        ctx = moderngl.create_context(standalone=True, backend=name, require=REQUIRED_VERSION)
+        if name == "glx" and not os.environ.get("DISPLAY"):
+            raise RuntimeError("GLX needs an X display and DISPLAY is not set")
+        backend = _GLCONTEXT_BACKEND[name]
+        options = {"backend": backend} if backend else {}
+        ctx = moderngl.create_context(standalone=True, require=REQUIRED_VERSION, **options)
     except Exception as exc:  # moderngl raises plain Exception subclasses from glcontext
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise GLUnavailableError(
             f"dentdemo: no OpenGL 3.3 core context through {name.upper()} ({detail}); "
-            f"{_INSTALL_HINT}"
+            f"{_INSTALL_HINTS[name]}"
         ) from None
     return _checked(GLContext(ctx=ctx, backend=name))
 
@@ -205,6 +216,7 @@ def _checked(gl: GLContext) -> GLContext:
         found = gl.ctx.version_code
         gl.release()
         raise GLUnavailableError(
-            f"dentdemo: OpenGL {found} found, 330 core required; {_INSTALL_HINT}"
+            f"dentdemo: OpenGL {found} found, 330 core required; "
+            f"{_INSTALL_HINTS.get(gl.backend, _INSTALL_HINTS['egl'])}"
         )
     return gl

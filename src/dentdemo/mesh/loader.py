@@ -126,8 +126,15 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
     path = Path(path)
     try:
         loaded = trimesh.load(path, force="mesh", process=False)
+    except ImportError:
+        # trimesh reaches for an optional charset detector when a text format is not UTF-8:
+        # the file is corrupt (or not a mesh), not the installation.
+        raise DentdemoError(
+            f"{path}: cannot load mesh (not UTF-8 text, nor a binary format trimesh reads)"
+        ) from None
     except Exception as exc:  # trimesh raises many types for unreadable files
-        raise DentdemoError(f"{path}: cannot load mesh ({exc})") from None
+        detail = " ".join(str(exc).split())[:160] or type(exc).__name__
+        raise DentdemoError(f"{path}: cannot load mesh ({detail})") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise DentdemoError(f"{path}: no triangles found")
     positions = np.asarray(loaded.vertices, dtype=np.float64) * scale
@@ -143,4 +150,9 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
             f"{path}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2
         )
         positions, normals, uvs, indices = reatlas(positions, indices, normals)
-    return Mesh(path.stem, positions, normals, uvs, indices)
+    mesh = Mesh(path.stem, positions, normals, uvs, indices)
+    if len(mesh.indices) == 0:
+        raise DentdemoError(
+            f"{path}: every triangle has no area at scale {scale:g} (too small to draw or carve)"
+        )
+    return mesh

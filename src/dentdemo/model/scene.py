@@ -17,9 +17,30 @@ import numpy as np
 from dentdemo.errors import ConfigError
 from dentdemo.model.materials import Material, MaterialLibrary
 from dentdemo.model.validate import TableReader, load_toml
+from dentdemo.outputs import is_safe_name
 
 SHAPE_KINDS = ("sphere", "box", "capsule", "cylinder", "plane", "plate", "mesh")
 DEFAULT_TEXELS_PER_METRE = 256.0
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Plausibility bounds of a scene: finite values beyond these are typing errors, not
+    experiments (README, "Scene files")."""
+
+    gravity: float = 1000.0  # m/s^2, length of the vector (about 100 g)
+    speed: float = 1000.0  # m/s, length of a body's velocity
+    spin: float = 1000.0  # rad/s, length of a body's angular velocity
+    position: float = 1000.0  # m from the origin, bodies, camera eye and target
+    size_min: float = 1e-3  # m: radius, length, side, thickness, box edges
+    size_max: float = 100.0  # m
+    mesh_scale_max: float = 1000.0
+    substeps: int = 64
+    solver_iterations: int = 1000
+    impact_speed_min: float = 100.0  # m/s
+
+
+BOUNDS = Bounds()
 
 
 @dataclass(frozen=True)
@@ -192,8 +213,8 @@ def _camera(source: str, table: Any) -> CameraSpec:
     r = TableReader(source, "camera", table)
     d = CameraSpec()
     spec = CameraSpec(
-        r.vector("eye", d.eye),
-        r.vector("target", d.target),
+        r.vector("eye", d.eye, max_norm=BOUNDS.position, what="distance from the origin (m)"),
+        r.vector("target", d.target, max_norm=BOUNDS.position, what="distance from the origin (m)"),
         r.number("fov_deg", d.fov_deg, min_value=1.0, max_value=170.0),
     )
     r.finish()
@@ -222,12 +243,20 @@ def _physics(source: str, table: Any) -> PhysicsSpec:
     r = TableReader(source, "physics", table)
     d = PhysicsSpec()
     spec = PhysicsSpec(
-        gravity=r.vector("gravity", d.gravity),
+        gravity=r.vector("gravity", d.gravity, max_norm=BOUNDS.gravity, what="magnitude (m/s^2)"),
         dt=r.number("dt", d.dt, min_value=1e-5, max_value=0.1),
-        substeps=int(r.number("substeps", d.substeps, min_value=1, max_value=64)),
-        impact_speed_min=r.number("impact_speed_min", d.impact_speed_min, min_value=0.0),
-        solver_iterations=int(
-            r.number("solver_iterations", d.solver_iterations, min_value=1, max_value=1000)
+        substeps=r.integer("substeps", d.substeps, min_value=1, max_value=BOUNDS.substeps),
+        impact_speed_min=r.number(
+            "impact_speed_min",
+            d.impact_speed_min,
+            min_value=0.0,
+            max_value=BOUNDS.impact_speed_min,
+        ),
+        solver_iterations=r.integer(
+            "solver_iterations",
+            d.solver_iterations,
+            min_value=1,
+            max_value=BOUNDS.solver_iterations,
         ),
     )
     r.finish()
@@ -238,17 +267,21 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
     label = table.get("id", f"#{index + 1}") if isinstance(table, dict) else f"#{index + 1}"
     r = TableReader(source, f"body.{label}", table)
     body_id = r.string("id")
-    if not body_id:
-        raise r.fail("id", "must not be empty")
+    if not is_safe_name(body_id):
+        raise r.fail(
+            "id",
+            "must be 1-64 letters, digits, '_', '-' or '.', starting with a letter or digit "
+            "(it names the body's map files)",
+        )
     kind = r.string("shape", choices=SHAPE_KINDS)
-    positive = {"min_value": 0.0, "min_inclusive": False}
+    positive = {"min_value": BOUNDS.size_min, "max_value": BOUNDS.size_max}
     shape: ShapeSpec
     if kind == "sphere":
         shape = ShapeSpec(kind, radius=r.number("radius", **positive))
     elif kind == "box":
         size = r.vector("size", None)
-        if min(size) <= 0:
-            raise r.fail("size", "must be positive")
+        if not all(BOUNDS.size_min <= x <= BOUNDS.size_max for x in size):
+            raise r.fail("size", f"edges must lie in [{BOUNDS.size_min:g}, {BOUNDS.size_max:g}] m")
         shape = ShapeSpec(kind, size=size)
     elif kind in ("capsule", "cylinder"):
         shape = ShapeSpec(
@@ -265,7 +298,10 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
         path = (Path(source).parent / mesh) if not Path(mesh).is_absolute() else Path(mesh)
         if not path.is_file():
             raise r.fail("mesh", f"no such file: {path}")
-        shape = ShapeSpec(kind, mesh_path=str(path), scale=r.number("scale", 1.0, **positive))
+        scale = r.number(
+            "scale", 1.0, min_value=0.0, min_inclusive=False, max_value=BOUNDS.mesh_scale_max
+        )
+        shape = ShapeSpec(kind, mesh_path=str(path), scale=scale)
     else:
         shape = ShapeSpec("plane")
     material = materials.get(r.string("material"), source, f"[body.{label}] key 'material'")
@@ -277,10 +313,17 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
         id=body_id,
         shape=shape,
         material=material,
-        position=r.vector("position", (0.0, 0.0, 0.0)),
+        position=r.vector(
+            "position",
+            (0.0, 0.0, 0.0),
+            max_norm=BOUNDS.position,
+            what="distance from the origin (m)",
+        ),
         orientation=euler_deg_to_quat(angles),
-        velocity=r.vector("velocity", (0.0, 0.0, 0.0)),
-        angular_velocity=r.vector("angular_velocity", (0.0, 0.0, 0.0)),
+        velocity=r.vector("velocity", (0.0, 0.0, 0.0), max_norm=BOUNDS.speed, what="speed (m/s)"),
+        angular_velocity=r.vector(
+            "angular_velocity", (0.0, 0.0, 0.0), max_norm=BOUNDS.spin, what="spin (rad/s)"
+        ),
         static=static,
         texels_per_metre=r.number(
             "texels_per_metre", DEFAULT_TEXELS_PER_METRE, min_value=1.0, max_value=16384.0

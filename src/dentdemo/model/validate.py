@@ -20,6 +20,12 @@ def load_toml(path: Path) -> dict[str, Any]:
         raise ConfigError(str(path), "", "no such file") from None
     except OSError as exc:
         raise ConfigError(str(path), "", f"cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(
+            str(path),
+            "",
+            f"not UTF-8 text (byte {exc.start}: {exc.object[exc.start : exc.start + 1]!r})",
+        ) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(str(path), "", f"malformed TOML: {exc}") from None
 
@@ -82,9 +88,29 @@ class TableReader:
             raise self.fail(key, f"must be {op} {max_value:g}")
         return value
 
+    def integer(
+        self, key: str, default: int | None = None, *, min_value: int, max_value: int
+    ) -> int:
+        """A whole number in [min_value, max_value]; 2.5 or 2.0 are rejected, not truncated."""
+        if not self._present(key, default):
+            return int(default)  # type: ignore[arg-type]
+        value = self.table[key]
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.fail(key, "must be an integer")
+        if not min_value <= value <= max_value:
+            raise self.fail(key, f"must lie in [{min_value}, {max_value}]")
+        return value
+
     def vector(
-        self, key: str, default: Sequence[float] | None, length: int = 3
+        self,
+        key: str,
+        default: Sequence[float] | None,
+        length: int = 3,
+        max_norm: float | None = None,
+        what: str = "",
     ) -> tuple[float, ...]:
+        """A list of `length` finite numbers; with `max_norm`, its length is bounded (`what` names
+        the quantity and unit in the message)."""
         if not self._present(key, default):
             return tuple(float(x) for x in default)
         value = self.table[key]
@@ -97,6 +123,8 @@ class TableReader:
             if not math.isfinite(float(item)):
                 raise self.fail(key, "must contain finite numbers only")
             out.append(float(item))
+        if max_norm is not None and math.hypot(*out) > max_norm:
+            raise self.fail(key, f"{what or 'length'} must be <= {max_norm:g} (plausibility bound)")
         return tuple(out)
 
     def string(self, key: str, default: str | None = None, choices: Sequence[str] = ()) -> str:
