@@ -11,12 +11,13 @@ import re
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, BinaryIO
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 from dentdemo.errors import DentdemoError
+
+if TYPE_CHECKING:  # numpy loads when an array is written: the commands' start stays light
+    import numpy as np
+    from numpy.typing import NDArray
 
 #: A body id that is safe as a file name on every platform: letters, digits, '_', '-', '.',
 #: starting with a letter or digit (no path separators, no '..', no hidden files).
@@ -98,6 +99,8 @@ def write_json(path: Path, payload: Any) -> Path:
 
 
 def write_npy(path: Path, array: NDArray[Any]) -> Path:
+    import numpy as np
+
     buffer = io.BytesIO()
     np.save(buffer, array)
     return write_bytes(path, buffer.getvalue())
@@ -105,6 +108,7 @@ def write_npy(path: Path, array: NDArray[Any]) -> Path:
 
 def write_png(path: Path, pixels: NDArray[Any]) -> Path:
     """An image array (rows top-down; uint8 RGB/RGBA/grey or uint16 grey) as a PNG."""
+    import numpy as np
     from PIL import Image
 
     buffer = io.BytesIO()
@@ -119,5 +123,7 @@ def write_normal_png(path: Path, normal: NDArray[np.uint8]) -> Path:
 
 def write_height_png(path: Path, height: NDArray[np.float32], max_depth: float) -> Path:
     """Heights as 16-bit greyscale: 65535 = pristine (0 m), 0 = -max_depth; top row is v = 1."""
+    import numpy as np
+
     scaled = np.clip(1.0 + height / max_depth, 0.0, 1.0) * 65535.0
     return write_png(path, np.round(scaled[::-1]).astype(np.uint16))

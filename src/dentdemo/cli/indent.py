@@ -7,8 +7,6 @@ import argparse
 import json
 from pathlib import Path
 
-import numpy as np
-
 from dentdemo.cli.args import command, float_in, int_in
 from dentdemo.errors import DentdemoError
 from dentdemo.outputs import check_output_dir
@@ -93,6 +91,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from dentdemo.app.press import make_setup, run_presses, shape_from_args, write_outputs
     from dentdemo.carve.surface import load_height_png
     from dentdemo.gl.context import create_headless

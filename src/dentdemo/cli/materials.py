@@ -6,7 +6,6 @@ import argparse
 import json
 
 from dentdemo.cli.args import add_materials, command
-from dentdemo.model.materials import load_materials
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,6 +21,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from dentdemo.model.materials import load_materials
+
     library = load_materials(args.materials)
     if args.json:
         payload = {

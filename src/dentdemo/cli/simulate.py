@@ -8,8 +8,6 @@ import time
 from pathlib import Path
 
 from dentdemo.cli.args import add_scene, command, int_in
-from dentdemo.model.materials import load_materials
-from dentdemo.model.scene import load_scene
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -28,6 +26,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
     from dentdemo.physics.simulate import build_world  # loads ODE
 
     materials = load_materials(args.materials)
