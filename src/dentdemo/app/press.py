@@ -150,6 +150,11 @@ def write_outputs(
     """The maps, a 16-bit height PNG and summary.json into `out`, each file written atomically."""
     target_h = gl.read(setup.target.maps.height)[:, :, 0]
     tool_h = gl.read(setup.tool.maps.height)[:, :, 0]
+    if depth > 0 and not (target_h < 0).any():
+        raise DentdemoError(
+            "--offset/--normal: the tool never meets the target moving along "
+            f"{np.round(setup.contact.direction, 4).tolist()}; nothing was pressed"
+        )
     outputs.write_npy(out / "target_height.npy", target_h)
     outputs.write_npy(out / "tool_height.npy", tool_h)
     outputs.write_normal_png(out / "target_normal.png", gl.read(setup.target.maps.normal))

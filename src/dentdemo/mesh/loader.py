@@ -3,6 +3,7 @@ coordinates are a unique atlas and an automatic re-atlas (xatlas) where they are
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -120,12 +121,25 @@ def vertex_normals(positions: NDArray, indices: NDArray) -> NDArray[np.float64]:
 
 
 def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
-    """Load a triangle mesh file; re-atlas it when its UVs are missing, tiled or overlapping."""
-    import trimesh
-
+    """Load a triangle mesh file; re-atlas it when its UVs are missing, tiled or overlapping.
+    A file is read (and re-atlased, and warned about) once per content and scale: physics and
+    drawing share the result."""
     path = Path(path)
     try:
-        loaded = trimesh.load(path, force="mesh", process=False)
+        stat = path.stat()
+    except OSError as exc:
+        raise DentdemoError(f"{path}: cannot load mesh ({exc.strerror})") from None
+    return _load_mesh(path.resolve(), str(path), float(scale), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=32)
+def _load_mesh(resolved: Path, shown: str, scale: float, mtime_ns: int, size: int) -> Mesh:
+    """load_mesh's work; the file's time and size in the key make an edited file load anew."""
+    import trimesh
+
+    path = Path(shown)
+    try:
+        loaded = trimesh.load(resolved, force="mesh", process=False)
     except ImportError:
         # trimesh reaches for an optional charset detector when a text format is not UTF-8:
         # the file is corrupt (or not a mesh), not the installation.
@@ -141,6 +155,12 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
     indices = np.asarray(loaded.faces, dtype=np.uint32)
     if not np.isfinite(positions).all():
         raise DentdemoError(f"{path}: vertex positions are not finite")
+    tri = positions[indices]
+    area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1) / 2
+    if not (area > 1e-14).any():  # before any warning: a rejected mesh prints one line only
+        raise DentdemoError(
+            f"{path}: every triangle has no area at scale {scale:g} (too small to draw or carve)"
+        )
     normals = vertex_normals(positions, indices)
     visual_uv = getattr(getattr(loaded, "visual", None), "uv", None)
     uvs = None if visual_uv is None else np.asarray(visual_uv, dtype=np.float64)

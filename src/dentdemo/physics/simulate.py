@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from typing import TYPE_CHECKING
 
 from dentdemo.errors import DentdemoError
@@ -16,15 +17,25 @@ def build_world(scene: Scene) -> PhysicsWorld:
     from dentdemo.physics.world import PhysicsWorld
 
     world = PhysicsWorld(scene.physics)
-    for body in scene.bodies:
-        arrays = None
-        if body.shape.kind == "mesh":
-            from dentdemo.mesh.loader import load_mesh
+    try:
+        for body in scene.bodies:
+            # A body's warnings (a mesh re-atlassed) are shown once the body is accepted: a
+            # rejected one gets its error line alone.
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                arrays = None
+                if body.shape.kind == "mesh":
+                    from dentdemo.mesh.loader import load_mesh
 
-            mesh = load_mesh(body.shape.mesh_path, body.shape.scale)
-            arrays = (mesh.positions, mesh.indices)
-        try:
-            world.add_body(body, arrays)
-        except ValueError as exc:
-            raise DentdemoError(f"{scene.source}: [body.{body.id}]: {exc}") from None
+                    mesh = load_mesh(body.shape.mesh_path, body.shape.scale)
+                    arrays = (mesh.positions, mesh.indices)
+                try:
+                    world.add_body(body, arrays)
+                except ValueError as exc:
+                    raise DentdemoError(f"{scene.source}: [body.{body.id}]: {exc}") from None
+            for warning in caught:
+                warnings.warn(str(warning.message), warning.category, stacklevel=2)
+    except BaseException:
+        world.close()
+        raise
     return world

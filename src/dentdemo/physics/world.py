@@ -11,6 +11,7 @@ import ctypes
 import math
 import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -104,6 +105,12 @@ class WorldState:
     bodies: dict[str, tuple[list[float], list[float], list[float], list[float]]]
 
 
+def _enclosed_volume(positions: NDArray, indices: NDArray) -> float:
+    """Signed volume of a triangle mesh, m^3 (positive for a closed, outward-facing mesh)."""
+    p = np.asarray(positions, dtype=np.float64)[np.asarray(indices, dtype=np.int64)]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0)
+
+
 def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
     w, x, y, z = q
     return np.array(
@@ -183,6 +190,16 @@ class PhysicsWorld:
         else:
             raise ValueError(f"unknown shape '{shape.kind}'")
         record = _Body(spec, geom, None, math.inf, com, keep)
+        if not spec.static and shape.kind == "mesh":
+            volume = _enclosed_volume(*mesh_arrays)  # type: ignore[misc]
+            if not volume > 1e-12:
+                ode.dGeomDestroy(geom)
+                ode.dGeomTriMeshDataDestroy(keep[2])
+                raise ValueError(
+                    f"mesh {Path(shape.mesh_path).name} encloses no volume ({volume:.3g} m^3; "
+                    "not closed or inside out): a dynamic body needs one for its mass; "
+                    "make it static or close the mesh"
+                )
         if not spec.static and shape.kind != "plane":
             body = ode.dBodyCreate(self.world)
             mass = ode.dMass()
