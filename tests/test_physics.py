@@ -389,3 +389,23 @@ def test_missing_ode_symbol_is_named(monkeypatch):
     monkeypatch.setattr(odepy, "dCollide", None)  # what odepy leaves for a symbol it cannot find
     with pytest.raises(PhysicsLibraryError, match="lacks dCollide"):
         ode_module._load()
+
+
+def test_ode_messages_are_one_dentdemo_line_and_quiet_silences_them(capsys):
+    """ODE's own messages (dMessage, printf-style) arrive as one formatted stderr line."""
+    import ctypes
+
+    from odepy.common import loadOde
+
+    from dentdemo import log
+    from dentdemo.physics.ode import ode  # noqa: F401 - installs the handlers
+
+    message = loadOde("dMessage", None, ctypes.c_int, ctypes.c_char_p, ctypes.c_char_p)
+    log.configure(quiet=False)
+    message(7, b"mass %s\nmust be > 0", b"of body x")
+    err = capsys.readouterr().err
+    assert err == "dentdemo: warning: ODE message 7: mass of body x must be > 0\n"
+    log.configure(quiet=True)
+    message(7, b"anything %s", b"at all")
+    assert capsys.readouterr().err == ""
+    log.configure(quiet=False)
