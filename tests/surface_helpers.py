@@ -8,10 +8,11 @@ import math
 import numpy as np
 
 from dentdemo.carve.carver import CarveBody
-from dentdemo.carve.shapes import Shape
 from dentdemo.carve.surface import GpuMesh, create_maps
 from dentdemo.mesh.loader import reatlas, vertex_normals
 from dentdemo.mesh.mesh import Mesh
+from dentdemo.mesh.shapes import Tessellation, shape_mesh
+from dentdemo.model.shapes import Box, Shape, Sphere
 
 #: Heights below this (metres) count as dented.
 DENTED = -1e-7
@@ -88,7 +89,7 @@ def ball_on(bodies: Bodies, point, normal, radius: float = 0.03, map_size: int =
     """A ball touching `point` (world) from the side of `normal`, and its contact frame."""
     n = np.asarray(normal, dtype=np.float64)
     n = n / np.linalg.norm(n)
-    ball = bodies.make(Shape("sphere", (radius,)).mesh(1), map_size)
+    ball = bodies.make(press_mesh(Sphere(radius), 1), map_size)
     ball.model = translation(np.asarray(point, dtype=np.float64) + radius * n)
     return ball, n
 
@@ -98,7 +99,7 @@ def slab_on(bodies: Bodies, point, normal, map_size: int = 256):
     `normal`, turned so that its top faces the point: a plate as a tool (a ball lands on it)."""
     n = np.asarray(normal, dtype=np.float64)
     n = n / np.linalg.norm(n)
-    slab = bodies.make(Shape("box", (0.5, 0.02, 0.5)).mesh(1), map_size)
+    slab = bodies.make(press_mesh(Box((0.5, 0.02, 0.5)), 1), map_size)
     axis = np.cross([0.0, 1.0, 0.0], n)
     angle = math.degrees(math.acos(np.clip(n[1], -1.0, 1.0)))
     turn = rotation(axis if np.linalg.norm(axis) > 1e-9 else (1.0, 0.0, 0.0), angle)
@@ -132,3 +133,8 @@ def coarse_from_fine(fine: np.ndarray, factor: int) -> tuple[np.ndarray, np.ndar
     c = fine[mid::factor, mid - 1 :: factor][: h // factor, : w // factor]
     d = fine[mid::factor, mid::factor][: h // factor, : w // factor]
     return (a + b + c + d) / 4.0, np.maximum(np.maximum(a, b), np.maximum(c, d)) < DENTED
+
+
+def press_mesh(shape: Shape, detail: int = 2) -> Mesh:
+    """A built-in shape's mesh at the press tool's tessellation."""
+    return shape_mesh(shape, Tessellation.press(detail))

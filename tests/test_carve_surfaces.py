@@ -14,9 +14,9 @@ from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.constants import MIN_COS
 from dentdemo.carve.cpu_reference import CpuReference
-from dentdemo.carve.shapes import Shape
 from dentdemo.mesh.primitives import _CUBE_FACES, _cell
 from dentdemo.mesh.primitives import sphere as sphere_mesh
+from dentdemo.model.shapes import Box, Capsule, Plate, Sphere
 from surface_helpers import (
     DENTED,
     Bodies,
@@ -25,6 +25,7 @@ from surface_helpers import (
     heights,
     holes,
     noisy_sphere_without_uvs,
+    press_mesh,
     rotation,
     slab_on,
     tilt,
@@ -55,18 +56,26 @@ _MESH_CACHE: dict[str, object] = {}
 def target_and_contact(kind: str):
     """(mesh, world point, outward unit normal) of each target and the spot pressed."""
     if kind == "plate":
-        return Shape("plate", (0.5,)).mesh(2), (0.07, 0.0, -0.04), (0.0, 1.0, 0.0)
+        return press_mesh(Plate(0.5), 2), (0.07, 0.0, -0.04), (0.0, 1.0, 0.0)
     if kind == "box":
-        return Shape("box", (0.3, 0.3, 0.3)).mesh(2), (0.05, 0.15, 0.06), (0.0, 1.0, 0.0)
+        return (
+            press_mesh(Box((0.3, 0.3, 0.3)), 2),
+            (0.05, 0.15, 0.06),
+            (0.0, 1.0, 0.0),
+        )
     if kind == "sphere":
         u = np.array([0.3, 0.8, 0.5]) / np.linalg.norm([0.3, 0.8, 0.5])
-        return Shape("sphere", (0.2,)).mesh(2), 0.2 * u, u
+        return press_mesh(Sphere(0.2), 2), 0.2 * u, u
     if kind == "ball":  # a small ball where three cube-sphere charts meet (dented by a slab)
         u = np.ones(3) / math.sqrt(3)
-        return Shape("sphere", (0.03,)).mesh(1), 0.03 * u, u
+        return press_mesh(Sphere(0.03), 1), 0.03 * u, u
     if kind == "capsule":
         # On the side, right on the u seam of the capsule's chart (phi = 0).
-        return Shape("capsule", (0.1, 0.3)).mesh(2), (0.1, 0.0, 0.05), (1.0, 0.0, 0.0)
+        return (
+            press_mesh(Capsule(0.1, 0.3), 2),
+            (0.1, 0.0, 0.05),
+            (1.0, 0.0, 0.0),
+        )
     if "mesh" not in _MESH_CACHE:
         _MESH_CACHE["mesh"] = noisy_sphere_without_uvs()
     mesh = _MESH_CACHE["mesh"]
@@ -152,7 +161,7 @@ def _ray_exit(p: np.ndarray, d: np.ndarray, centre: np.ndarray, radius: float) -
 
 def test_ball_on_a_box_edge_dents_both_faces_continuously(gl, carver, bodies):
     half, size, depth, radius = 0.15, 1024, 0.006, 0.05
-    box = bodies.make(Shape("box", (0.3, 0.3, 0.3)).mesh(2), size)
+    box = bodies.make(press_mesh(Box((0.3, 0.3, 0.3)), 2), size)
     diagonal = np.array([1.0, 1.0, 0.0]) / math.sqrt(2)
     point = np.array([half, half, 0.02])  # on the edge between +X and +Y
     ball, _ = ball_on(bodies, point, diagonal, radius)
@@ -217,17 +226,17 @@ def corner_down() -> np.ndarray:
 @pytest.mark.parametrize("pose", ["face", "edge", "corner", "capsule"])
 def test_tool_prints_are_exact(gl, carver, bodies, pose):
     side, size, depth, a = 0.5, 512, 0.005, 0.1
-    plate = bodies.make(Shape("plate", (side,)).mesh(2), size)
+    plate = bodies.make(press_mesh(Plate(side), 2), size)
     x, z = _plate_xz(size, side)
     if pose == "capsule":
         r, length = 0.03, 0.1
-        tool = bodies.make(Shape("capsule", (r, length)).mesh(2), 256)
+        tool = bodies.make(press_mesh(Capsule(r, length), 2), 256)
         tool.model = translation((0.0, r, 0.0)) @ rotation((0, 1, 0), 90)  # axis along x
         dx = np.maximum(np.abs(x) - length / 2, 0.0)
         q = r * r - dx**2 - z**2
         expected = np.where(q > 0, np.minimum(0.0, -depth + r - np.sqrt(np.maximum(q, 0))), 0.0)
     else:
-        tool = bodies.make(Shape("box", (a, a, a)).mesh(2), 256)
+        tool = bodies.make(press_mesh(Box((a, a, a)), 2), 256)
         if pose == "face":
             tool.model = translation((0.0, a / 2, 0.0))
             expected = np.where((np.abs(x) < a / 2) & (np.abs(z) < a / 2), -depth, 0.0)
@@ -293,11 +302,11 @@ def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def test_normals_in_a_flat_face_dent_follow_the_cap(gl, carver, bodies, kind):
     radius, depth, size = 0.05, 0.01, 512
     if kind == "plate":
-        target = bodies.make(Shape("plate", (0.5,)).mesh(2), size)
+        target = bodies.make(press_mesh(Plate(0.5), 2), size)
         top, x0, z0 = 0.0, 0.03, -0.02
         u0, v0, du, dv, span = 0.0, 0.0, 1.0, 1.0, 0.5
     else:
-        target = bodies.make(Shape("box", (0.3, 0.3, 0.3)).mesh(2), size)
+        target = bodies.make(press_mesh(Box((0.3, 0.3, 0.3)), 2), size)
         top, x0, z0 = 0.15, 0.03, -0.02
         u0, v0, du, dv = _cell(2)  # the +Y chart: +u along +x, +v along -z (as the plate)
         span = 0.3
@@ -333,7 +342,7 @@ def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies, subd
     # 8 subdivisions a cube face: facets 11 degrees apart, which must not show in the dent.
     sphere = bodies.make(sphere_mesh(radius, subdivisions), size)
     pristine = gl.read(sphere.maps.normal)
-    tool = bodies.make(Shape("box", (0.2, 0.2, 0.2)).mesh(2), 64)
+    tool = bodies.make(press_mesh(Box((0.2, 0.2, 0.2)), 2), 64)
     tool.model = translation((0.0, radius + 0.1, 0.0))
     point = np.array([0.0, radius, 0.0])
     carver.carve(sphere, tool, ContactFrame(point, np.array([0.0, -1.0, 0.0])), depth)
@@ -386,8 +395,8 @@ def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
         carver.loose_camera = loose
         try:
             if case == "corner-plate":
-                target = bodies.make(Shape("plate", (0.2,)).mesh(2), 256)
-                tool = bodies.make(Shape("box", (0.1, 0.1, 0.1)).mesh(1), 512)
+                target = bodies.make(press_mesh(Plate(0.2), 2), 256)
+                tool = bodies.make(press_mesh(Box((0.1, 0.1, 0.1)), 1), 512)
                 rot = corner_down()
                 corner = rot[:3, :3] @ np.full(3, -0.05)
                 tool.model = translation((0.02, 0.0, 0.0) - corner) @ rot
@@ -450,7 +459,7 @@ def test_a_target_s_proud_bumps_meet_the_tool(gl, carver, bodies):
     bumps = (0.0005 + 0.0005 * np.sin(2 * math.pi * 40 * u) * np.cos(2 * math.pi * 40 * v)).astype(
         np.float32
     )
-    plate = bodies.make(Shape("plate", (side,)).mesh(2), size, initial_height=bumps)
+    plate = bodies.make(press_mesh(Plate(side), 2), size, initial_height=bumps)
     ball, _ = ball_on(bodies, (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), radius)
     carver.carve(plate, ball, ContactFrame(np.zeros(3), np.array([0.0, -1.0, 0.0])), depth)
     h = heights(gl, plate)

@@ -17,7 +17,8 @@ import pytest
 from cli_helpers import dentdemo
 from dentdemo.errors import ConfigError
 from dentdemo.model.materials import load_materials
-from dentdemo.model.scene import BodySpec, PhysicsSpec, ShapeSpec, load_scene
+from dentdemo.model.scene import BodySpec, PhysicsSpec, load_scene
+from dentdemo.model.shapes import Box, Capsule, Plane, Plate, Sphere
 from dentdemo.physics.world import PhysicsWorld
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,10 +35,8 @@ def _drop(eps: float, height: float, dt: float, substeps: int = 4) -> tuple[floa
     """Drop a ball from `height` (its lowest point) on the ground: (rebound peak, impact speed)."""
     mat = _material("steel", restitution=eps)
     world = PhysicsWorld(PhysicsSpec(dt=dt, substeps=substeps))
-    world.add_body(BodySpec("ground", ShapeSpec("plane"), mat, static=True))
-    world.add_body(
-        BodySpec("ball", ShapeSpec("sphere", radius=0.05), mat, position=(0, height + 0.05, 0))
-    )
+    world.add_body(BodySpec("ground", Plane(), mat, static=True))
+    world.add_body(BodySpec("ball", Sphere(0.05), mat, position=(0, height + 0.05, 0)))
     impacts, peak, rising = [], 0.0, False
     for _ in range(int(4.0 / dt)):
         impacts += world.step()
@@ -68,16 +67,8 @@ def test_bounce_height_is_eps_squared(eps, dt, substeps):
 def test_eq2_head_on_two_dynamic_spheres():
     steel, alu = LIB.get("steel"), LIB.get("aluminium")
     world = PhysicsWorld(PhysicsSpec(gravity=(0, 0, 0), dt=1 / 240, substeps=4))
-    world.add_body(
-        BodySpec(
-            "a", ShapeSpec("sphere", radius=0.05), steel, position=(0, 1, 0), velocity=(1, 0, 0)
-        )
-    )
-    world.add_body(
-        BodySpec(
-            "b", ShapeSpec("sphere", radius=0.05), alu, position=(0.3, 1, 0), velocity=(-2, 0, 0)
-        )
-    )
+    world.add_body(BodySpec("a", Sphere(0.05), steel, position=(0, 1, 0), velocity=(1, 0, 0)))
+    world.add_body(BodySpec("b", Sphere(0.05), alu, position=(0.3, 1, 0), velocity=(-2, 0, 0)))
     m_a = steel.density * 4 / 3 * math.pi * 0.05**3
     m_b = alu.density * 4 / 3 * math.pi * 0.05**3
     impacts = []
@@ -105,17 +96,13 @@ def test_eq2_sphere_on_static_plate():
     world.add_body(
         BodySpec(
             "plate",
-            ShapeSpec("plate", side=0.5, thickness=0.02),
+            Plate(0.5, 0.02),
             lead,
             position=(0, 0.02, 0),
             static=True,
         )
     )
-    world.add_body(
-        BodySpec(
-            "ball", ShapeSpec("sphere", radius=0.04), steel, position=(0, 0.02 + 0.04 + 0.8, 0)
-        )
-    )
+    world.add_body(BodySpec("ball", Sphere(0.04), steel, position=(0, 0.02 + 0.04 + 0.8, 0)))
     impacts = []
     for _ in range(120):
         impacts += world.step()
@@ -136,10 +123,8 @@ def test_eq2_sphere_on_static_plate():
 def test_resting_ball_produces_no_impacts():
     steel = LIB.get("steel")
     world = PhysicsWorld(PhysicsSpec())
-    world.add_body(BodySpec("ground", ShapeSpec("plane"), steel, static=True))
-    world.add_body(
-        BodySpec("ball", ShapeSpec("sphere", radius=0.05), steel, position=(0, 0.051, 0))
-    )
+    world.add_body(BodySpec("ground", Plane(), steel, static=True))
+    world.add_body(BodySpec("ball", Sphere(0.05), steel, position=(0, 0.051, 0)))
     for _ in range(60):
         world.step()
     later = []
@@ -172,8 +157,8 @@ def test_ball_drop_is_deterministic_and_settles():
 def test_non_finite_body_is_removed_with_a_warning():
     steel = LIB.get("steel")
     world = PhysicsWorld(PhysicsSpec(gravity=(0, 0, 0)))
-    world.add_body(BodySpec("ok", ShapeSpec("sphere", radius=0.05), steel, position=(0, 1, 0)))
-    world.add_body(BodySpec("bad", ShapeSpec("sphere", radius=0.05), steel, position=(2, 1, 0)))
+    world.add_body(BodySpec("ok", Sphere(0.05), steel, position=(0, 1, 0)))
+    world.add_body(BodySpec("bad", Sphere(0.05), steel, position=(2, 1, 0)))
     world.set_velocity("bad", np.array([math.inf, 0.0, 0.0]))
     with pytest.warns(RuntimeWarning, match="'bad' became non-finite"):
         world.step()
@@ -186,12 +171,12 @@ def test_non_finite_body_is_removed_with_a_warning():
 def test_bodies_can_be_added_and_removed_while_running():
     steel = LIB.get("steel")
     world = PhysicsWorld(PhysicsSpec())
-    world.add_body(BodySpec("ground", ShapeSpec("plane"), steel, static=True))
+    world.add_body(BodySpec("ground", Plane(), steel, static=True))
     for i in range(5):
         world.add_body(
             BodySpec(
                 f"b{i}",
-                ShapeSpec("capsule", radius=0.03, length=0.1),
+                Capsule(0.03, 0.1),
                 steel,
                 position=(i * 0.2, 0.5, 0),
             )
@@ -202,7 +187,7 @@ def test_bodies_can_be_added_and_removed_while_running():
         world.step()
     assert set(world.bodies) == {"ground", "b0", "b1", "b3", "b4"}
     with pytest.raises(ValueError, match="duplicate"):
-        world.add_body(BodySpec("b0", ShapeSpec("sphere", radius=0.1), steel))
+        world.add_body(BodySpec("b0", Sphere(0.1), steel))
     world.close()
 
 
@@ -265,12 +250,12 @@ def test_bad_scenes(tmp_toml, text, expected):
 
 def test_ball_drop_scene_has_what_the_demo_needs():
     scene = load_scene(BALL_DROP, LIB)
-    plates = {b.material.name for b in scene.bodies if b.shape.kind == "plate"}
+    plates = {b.material.name for b in scene.bodies if isinstance(b.shape, Plate)}
     assert {"steel", "aluminium", "lead", "oak"} <= plates
-    balls = [b for b in scene.bodies if b.shape.kind == "sphere"]
+    balls = [b for b in scene.bodies if isinstance(b.shape, Sphere)]
     assert len({b.material.name for b in balls}) >= 4
     assert len({b.shape.radius for b in balls}) >= 3 and len({b.position[1] for b in balls}) >= 3
-    assert any(b.shape.kind == "box" for b in scene.bodies)
+    assert any(isinstance(b.shape, Box) for b in scene.bodies)
 
 
 def _simulate(*args):
@@ -328,12 +313,12 @@ def test_trimesh_body_collides(tmp_path):
 def test_small_stack_stays_stacked_and_quiet():
     oak = LIB.get("oak")
     world = PhysicsWorld(PhysicsSpec())
-    world.add_body(BodySpec("ground", ShapeSpec("plane"), oak, static=True))
+    world.add_body(BodySpec("ground", Plane(), oak, static=True))
     for i in range(4):
         world.add_body(
             BodySpec(
                 f"box{i}",
-                ShapeSpec("box", size=(0.2, 0.2, 0.2)),
+                Box((0.2, 0.2, 0.2)),
                 oak,
                 position=(0.01 * i, 0.1 + 0.2 * i + 0.001, 0),
             )

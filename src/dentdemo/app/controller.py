@@ -12,7 +12,8 @@ import numpy as np
 from dentdemo.app.simulation import Simulation
 from dentdemo.gl.context import GLContext
 from dentdemo.model.materials import MaterialLibrary
-from dentdemo.model.scene import BodySpec, Scene, ShapeSpec
+from dentdemo.model.scene import BodySpec, Scene
+from dentdemo.model.shapes import Plate
 from dentdemo.render.camera import OrbitCamera
 from dentdemo.render.renderer import Renderer, RenderOptions
 
@@ -131,7 +132,7 @@ class DemoController:
         t = self.camera.target
         spec = BodySpec(
             id=body_id,
-            shape=ShapeSpec("plate", side=self.panel.plate_side, thickness=0.02),
+            shape=Plate(self.panel.plate_side, thickness=0.02),
             material=self.materials.get(self.panel.plate_material),
             position=(float(t[0]), 0.02, float(t[2])),
             static=True,

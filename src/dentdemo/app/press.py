@@ -12,10 +12,20 @@ import numpy as np
 from dentdemo import outputs
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
-from dentdemo.carve.shapes import Shape
 from dentdemo.carve.surface import GpuMesh, create_maps
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
+from dentdemo.mesh.shapes import Tessellation, shape_mesh
+from dentdemo.model.shapes import (
+    Box,
+    Capsule,
+    Cylinder,
+    Plate,
+    Shape,
+    Sphere,
+    as_dict,
+    support,
+)
 
 DOWN = np.array([0.0, -1.0, 0.0])
 
@@ -32,28 +42,48 @@ class PressSetup:
     surface_normal: np.ndarray
 
 
+#: How many sizes each kind takes on the command line (a box also takes one edge for a cube, a
+#: capsule or cylinder its radius alone for a length of two radii).
+_SIZES = {"plate": (1,), "box": (1, 3), "sphere": (1,), "capsule": (1, 2), "cylinder": (1, 2)}
+
+
 def shape_from_args(kind: str, size: list[float], role: str) -> Shape:
     """Sizes: plate side; box edge (or x y z); sphere radius; capsule/cylinder radius [length]."""
     s = [float(x) for x in size]
-    if kind == "box" and len(s) == 1:
-        s = s * 3
-    if kind in ("capsule", "cylinder") and len(s) == 1:
-        s = [s[0], 2 * s[0]]
-    try:
-        return Shape(kind, tuple(s))
-    except DentdemoError as exc:
-        raise DentdemoError(f"--{role}-size: {exc}") from None
+    if kind not in _SIZES:
+        raise DentdemoError(f"--{role}: unknown shape '{kind}' (known: {', '.join(_SIZES)})")
+    if len(s) not in _SIZES[kind]:
+        counts = " or ".join(str(n) for n in _SIZES[kind])
+        raise DentdemoError(f"--{role}-size: a {kind} takes {counts} value(s), got {len(s)}")
+    if not all(np.isfinite(x) and x > 0 for x in s):
+        raise DentdemoError(f"--{role}-size: sizes must be positive finite metres, got {s}")
+    match kind, s:
+        case "plate", [side]:
+            return Plate(side)
+        case "sphere", [radius]:
+            return Sphere(radius)
+        case "box", [edge]:
+            return Box((edge, edge, edge))
+        case "box", [x, y, z]:
+            return Box((x, y, z))
+        case (("capsule" | "cylinder"), [radius, *rest]):
+            solid = Capsule if kind == "capsule" else Cylinder
+            return solid(radius, rest[0] if rest else 2 * radius)
+    raise AssertionError((kind, s))
 
 
 def _aim_point(shape: Shape, offset: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     """The point above (x, z) = offset on the target's upper side, and its normal there."""
     x, z = offset
-    if shape.kind == "sphere":
-        r = shape.dims[0]
-        y2 = r * r - x * x - z * z
-        point = np.array([x, np.sqrt(y2) if y2 > 0 else 0.0, z])
-        return point, point / max(np.linalg.norm(point), 1e-30)
-    top = 0.0 if shape.kind == "plate" else float(shape.support(np.array([0.0, 1.0, 0.0]))[1])
+    match shape:
+        case Sphere(radius=r):
+            y2 = r * r - x * x - z * z
+            point = np.array([x, np.sqrt(y2) if y2 > 0 else 0.0, z])
+            return point, point / max(np.linalg.norm(point), 1e-30)
+        case Plate():
+            top = 0.0
+        case _:
+            top = float(support(shape, np.array([0.0, 1.0, 0.0]))[1])
     return np.array([x, top, z]), np.array([0.0, 1.0, 0.0])
 
 
@@ -70,13 +100,13 @@ def make_setup(
     detail: int = 2,
 ) -> PressSetup:
     """Build both bodies; the tool touches the target at the aim point with the surface normal."""
-    target_mesh = target_shape.mesh(detail)
-    tool_mesh = tool_shape.mesh(detail)
+    target_mesh = shape_mesh(target_shape, Tessellation.press(detail))
+    tool_mesh = shape_mesh(tool_shape, Tessellation.press(detail))
     target_gpu = GpuMesh(gl, target_mesh)
     target = CarveBody(target_gpu, create_maps(gl, target_gpu, map_size, max_dent_depth))
     point, normal = _aim_point(target_shape, offset)
     tool_model = np.eye(4)
-    tool_model[:3, 3] = point - tool_shape.support(-normal)
+    tool_model[:3, 3] = point - support(tool_shape, -normal)
     tool_gpu = GpuMesh(gl, tool_mesh)
     tool = CarveBody(
         tool_gpu, create_maps(gl, tool_gpu, tool_map_size, max_dent_depth, tool_height), tool_model
@@ -162,8 +192,8 @@ def write_outputs(
     outputs.write_height_png(out / "target_height.png", target_h, setup.target.maps.max_dent_depth)
     tu, tv = setup.target.maps.texel_metres
     summary = {
-        "target": {"shape": setup.target_shape.kind, "size_m": list(setup.target_shape.dims)},
-        "tool": {"shape": setup.tool_shape.kind, "size_m": list(setup.tool_shape.dims)},
+        "target": as_dict(setup.target_shape),
+        "tool": as_dict(setup.tool_shape),
         "depth_m": depth,
         "tool_depth_m": tool_depth,
         "map_size": list(setup.target.maps.size),
@@ -177,15 +207,9 @@ def write_outputs(
         "renderer": gl.renderer,
     }
     straight = np.allclose(setup.contact.direction, DOWN)
-    if (
-        setup.target_shape.kind == "plate"
-        and setup.tool_shape.kind == "sphere"
-        and straight
-        and depth > 0
-    ):
-        offset = (float(setup.contact.point[0]), float(setup.contact.point[2]))
-        summary["cap"] = cap_error(
-            target_h, setup.target_shape.dims[0], offset, setup.tool_shape.dims[0], depth
-        )
+    match setup.target_shape, setup.tool_shape:
+        case Plate(side=side), Sphere(radius=radius) if straight and depth > 0:
+            offset = (float(setup.contact.point[0]), float(setup.contact.point[2]))
+            summary["cap"] = cap_error(target_h, side, offset, radius, depth)
     outputs.write_json(out / "summary.json", summary)
     return summary

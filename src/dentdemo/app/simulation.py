@@ -17,18 +17,17 @@ from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
 from dentdemo.gl.context import GLContext
-from dentdemo.mesh import primitives
 from dentdemo.mesh.mesh import Mesh
+from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model.impulse import dent_depth
 from dentdemo.model.materials import MaterialLibrary
-from dentdemo.model.scene import BodySpec, Scene, ShapeSpec
+from dentdemo.model.scene import BodySpec, Scene
+from dentdemo.model.shapes import Plane, Sphere
 from dentdemo.physics.simulate import build_world
 from dentdemo.physics.world import Impact, PhysicsWorld, quat_to_matrix
 
 #: How many recent carve points the contact debug view keeps.
 CARVED_POINTS_KEPT = 1024
-#: Side of the stand-in plate that plays the ground when a body is carved by the ground plane, m.
-GROUND_PROXY_SIDE = 4.0
 
 
 @dataclass
@@ -61,25 +60,6 @@ class SimStats:
     physics_ms: float = 0.0
     carve_ms: float = 0.0  # CPU time issuing the last frame's carves (the GPU runs them async)
     carve_ms_per_hit: float = 0.0
-
-
-def shape_mesh(shape: ShapeSpec) -> Mesh:
-    """The render and carve mesh of a shape (body-local, metres)."""
-    if shape.kind == "sphere":
-        return primitives.sphere(shape.radius, subdivisions=16)
-    if shape.kind == "box":
-        return primitives.box(shape.size)
-    if shape.kind == "plate":
-        return primitives.plate(shape.side)
-    if shape.kind == "capsule":
-        return primitives.capsule(shape.radius, shape.length)
-    if shape.kind == "cylinder":
-        return primitives.cylinder(shape.radius, shape.length)
-    if shape.kind == "mesh":
-        from dentdemo.mesh.loader import load_mesh
-
-        return load_mesh(shape.mesh_path, shape.scale)
-    return primitives.plate(GROUND_PROXY_SIDE)  # the ground plane
 
 
 def map_side(spec: BodySpec, mesh: Mesh) -> int:
@@ -158,7 +138,7 @@ class Simulation:
             body_id = f"ball_{self.ball_count}"
         spec = BodySpec(
             id=body_id,
-            shape=ShapeSpec("sphere", radius=radius),
+            shape=Sphere(radius),
             material=self.materials.get(material),
             position=tuple(float(x) for x in position),
             velocity=tuple(float(x) for x in velocity),
@@ -249,7 +229,7 @@ class Simulation:
         if depth_a <= 0.0 and depth_b <= 0.0:
             return None  # no GPU work for an impact below both thresholds
         model_a = pose_matrix(*impact.pose_a)
-        if a.spec.shape.kind == "plane":
+        if isinstance(a.spec.shape, Plane):
             model_a[:3, 3] = [impact.point[0], a.spec.position[1], impact.point[2]]
         model_b = pose_matrix(*impact.pose_b)
         model_b[:3, 3] += impact.normal * impact.depth  # undo the penetration: first touch

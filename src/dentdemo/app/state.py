@@ -20,10 +20,12 @@ from typing import Any
 import numpy as np
 
 from dentdemo import outputs
-from dentdemo.app.simulation import CarveRequest, Simulation, map_side, shape_mesh
+from dentdemo.app.simulation import CarveRequest, Simulation, map_side
 from dentdemo.carve.surface import rebuild_all_normals
 from dentdemo.errors import DentdemoError
-from dentdemo.model.scene import BodySpec, ShapeSpec
+from dentdemo.mesh.shapes import shape_mesh
+from dentdemo.model import shapes
+from dentdemo.model.scene import BodySpec
 from dentdemo.physics.world import Impact, WorldState
 
 FORMAT = "dentdemo-state"
@@ -69,20 +71,14 @@ def _impact(data: dict[str, Any]) -> Impact:
 def _added_body(spec: BodySpec) -> dict[str, Any]:
     """A body added while running (the demo's balls and plates): its spec, material by name."""
     fields = {f.name: _plain(getattr(spec, f.name)) for f in dataclasses.fields(spec)}
-    fields["shape"] = {
-        f.name: _plain(getattr(spec.shape, f.name)) for f in dataclasses.fields(spec.shape)
-    }
+    fields["shape"] = shapes.as_dict(spec.shape)
     fields["material"] = spec.material.name
     return fields
 
 
 def _spec(sim: Simulation, entry: dict[str, Any]) -> BodySpec:
-    shape = dict(entry["shape"])
-    for key, value in shape.items():
-        if isinstance(value, list):
-            shape[key] = tuple(value)
     fields = dict(entry)
-    fields["shape"] = ShapeSpec(**shape)
+    fields["shape"] = shapes.from_dict(entry["shape"])
     fields["material"] = sim.materials.get(entry["material"])
     for key, value in fields.items():
         if isinstance(value, list):

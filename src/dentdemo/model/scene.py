@@ -16,10 +16,21 @@ import numpy as np
 
 from dentdemo.errors import ConfigError
 from dentdemo.model.materials import Material, MaterialLibrary
+from dentdemo.model.shapes import (
+    KINDS,
+    Box,
+    Capsule,
+    Cylinder,
+    MeshFile,
+    Plane,
+    Plate,
+    Shape,
+    Sphere,
+)
 from dentdemo.model.validate import TableReader, load_toml
 from dentdemo.outputs import is_safe_name
 
-SHAPE_KINDS = ("sphere", "box", "capsule", "cylinder", "plane", "plate", "mesh")
+SHAPE_KINDS = tuple(KINDS)
 DEFAULT_TEXELS_PER_METRE = 256.0
 
 
@@ -44,60 +55,11 @@ BOUNDS = Bounds()
 
 
 @dataclass(frozen=True)
-class ShapeSpec:
-    """A collision and render shape. Sizes in metres.
-
-    sphere: radius; box: size (x, y, z full extents); capsule, cylinder: radius and length along
-    local Z; plane: the static ground y = 0 (infinite, never dented); plate: a box of side x side x
-    thickness whose top face (local y = 0) carries the dentable map; mesh: a triangle mesh file.
-    """
-
-    kind: str
-    radius: float = 0.0
-    size: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    length: float = 0.0
-    side: float = 0.0
-    thickness: float = 0.0
-    mesh_path: str = ""
-    scale: float = 1.0
-
-    def volume(self) -> float:
-        """m^3 (0 for the plane; a mesh's volume comes from the mesh itself)."""
-        r = self.radius
-        if self.kind == "sphere":
-            return 4.0 / 3.0 * math.pi * r**3
-        if self.kind == "box":
-            return float(np.prod(self.size))
-        if self.kind == "capsule":
-            return math.pi * r * r * self.length + 4.0 / 3.0 * math.pi * r**3
-        if self.kind == "cylinder":
-            return math.pi * r * r * self.length
-        if self.kind == "plate":
-            return self.side * self.side * self.thickness
-        return 0.0
-
-    def bounding_radius(self) -> float:
-        if self.kind == "sphere":
-            return self.radius
-        if self.kind == "box":
-            return float(np.linalg.norm(self.size) / 2)
-        if self.kind in ("capsule", "cylinder"):
-            return (
-                self.length / 2 + self.radius
-                if self.kind == "capsule"
-                else math.hypot(self.length / 2, self.radius)
-            )
-        if self.kind == "plate":
-            return math.hypot(self.side / math.sqrt(2), self.thickness)
-        return math.inf
-
-
-@dataclass(frozen=True)
 class BodySpec:
     """One body of a scene."""
 
     id: str
-    shape: ShapeSpec
+    shape: Shape
     material: Material
     position: tuple[float, float, float] = (0.0, 0.0, 0.0)
     #: Orientation quaternion (w, x, y, z).
@@ -275,24 +237,19 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
         )
     kind = r.string("shape", choices=SHAPE_KINDS)
     positive = {"min_value": BOUNDS.size_min, "max_value": BOUNDS.size_max}
-    shape: ShapeSpec
+    shape: Shape
     if kind == "sphere":
-        shape = ShapeSpec(kind, radius=r.number("radius", **positive))
+        shape = Sphere(r.number("radius", **positive))
     elif kind == "box":
         size = r.vector("size", None)
         if not all(BOUNDS.size_min <= x <= BOUNDS.size_max for x in size):
             raise r.fail("size", f"edges must lie in [{BOUNDS.size_min:g}, {BOUNDS.size_max:g}] m")
-        shape = ShapeSpec(kind, size=size)
+        shape = Box((size[0], size[1], size[2]))
     elif kind in ("capsule", "cylinder"):
-        shape = ShapeSpec(
-            kind, radius=r.number("radius", **positive), length=r.number("length", **positive)
-        )
+        solid = Capsule if kind == "capsule" else Cylinder
+        shape = solid(r.number("radius", **positive), r.number("length", **positive))
     elif kind == "plate":
-        shape = ShapeSpec(
-            kind,
-            side=r.number("side", **positive),
-            thickness=r.number("thickness", 0.02, **positive),
-        )
+        shape = Plate(r.number("side", **positive), r.number("thickness", 0.02, **positive))
     elif kind == "mesh":
         mesh = r.string("mesh")
         path = (Path(source).parent / mesh) if not Path(mesh).is_absolute() else Path(mesh)
@@ -301,9 +258,9 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
         scale = r.number(
             "scale", 1.0, min_value=0.0, min_inclusive=False, max_value=BOUNDS.mesh_scale_max
         )
-        shape = ShapeSpec(kind, mesh_path=str(path), scale=scale)
+        shape = MeshFile(str(path), scale)
     else:
-        shape = ShapeSpec("plane")
+        shape = Plane()
     material = materials.get(r.string("material"), source, f"[body.{label}] key 'material'")
     static = r.boolean("static", kind == "plane")
     if kind == "plane" and not static:

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 from dentdemo.errors import DentdemoError
 from dentdemo.model.scene import Scene
+from dentdemo.model.shapes import MeshFile
 
 if TYPE_CHECKING:  # ODE loads on first use, so commands without physics run without libode
     from dentdemo.physics.world import PhysicsWorld
@@ -24,10 +25,10 @@ def build_world(scene: Scene) -> PhysicsWorld:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 arrays = None
-                if body.shape.kind == "mesh":
+                if isinstance(body.shape, MeshFile):
                     from dentdemo.mesh.loader import load_mesh
 
-                    mesh = load_mesh(body.shape.mesh_path, body.shape.scale)
+                    mesh = load_mesh(body.shape.path, body.shape.scale)
                     arrays = (mesh.positions, mesh.indices)
                 try:
                     world.add_body(body, arrays)

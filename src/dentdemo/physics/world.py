@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
+from dentdemo.model.shapes import Box, Capsule, Cylinder, MeshFile, Plane, Plate, Sphere
 from dentdemo.physics.ode import fast, ode
 
 MAX_CONTACTS = 8
@@ -170,41 +171,42 @@ class PhysicsWorld:
         shape = spec.shape
         keep: list = []
         com = np.zeros(3)
-        if shape.kind == "plane":
-            geom = ode.dCreatePlane(self.space, 0.0, 1.0, 0.0, spec.position[1])
-        elif shape.kind == "sphere":
-            geom = ode.dCreateSphere(self.space, shape.radius)
-        elif shape.kind == "box":
-            geom = ode.dCreateBox(self.space, *shape.size)
-        elif shape.kind == "plate":
-            geom = ode.dCreateBox(self.space, shape.side, shape.thickness, shape.side)
-            com = np.array([0.0, -shape.thickness / 2, 0.0])
-        elif shape.kind == "capsule":
-            geom = ode.dCreateCapsule(self.space, shape.radius, shape.length)
-        elif shape.kind == "cylinder":
-            geom = ode.dCreateCylinder(self.space, shape.radius, shape.length)
-        elif shape.kind == "mesh":
-            if mesh_arrays is None:
-                raise ValueError(f"body '{spec.id}': a mesh shape needs its triangles")
-            geom, keep = self._trimesh(*mesh_arrays)
-        else:
-            raise ValueError(f"unknown shape '{shape.kind}'")
+        match shape:
+            case Plane():
+                geom = ode.dCreatePlane(self.space, 0.0, 1.0, 0.0, spec.position[1])
+            case Sphere(radius=r):
+                geom = ode.dCreateSphere(self.space, r)
+            case Box(size=size):
+                geom = ode.dCreateBox(self.space, *size)
+            case Plate(side=side, thickness=thickness):
+                geom = ode.dCreateBox(self.space, side, thickness, side)
+                com = np.array([0.0, -thickness / 2, 0.0])
+            case Capsule(radius=r, length=length):
+                geom = ode.dCreateCapsule(self.space, r, length)
+            case Cylinder(radius=r, length=length):
+                geom = ode.dCreateCylinder(self.space, r, length)
+            case MeshFile():
+                if mesh_arrays is None:
+                    raise ValueError(f"body '{spec.id}': a mesh shape needs its triangles")
+                geom, keep = self._trimesh(*mesh_arrays)
+            case _:
+                raise ValueError(f"not a shape: {shape!r}")
         record = _Body(spec, geom, None, math.inf, com, keep)
-        if not spec.static and shape.kind == "mesh":
+        if not spec.static and isinstance(shape, MeshFile):
             volume = _enclosed_volume(*mesh_arrays)  # type: ignore[misc]
             if not volume > 1e-12:
                 ode.dGeomDestroy(geom)
                 ode.dGeomTriMeshDataDestroy(keep[2])
                 raise ValueError(
-                    f"mesh {Path(shape.mesh_path).name} encloses no volume ({volume:.3g} m^3; "
+                    f"mesh {Path(shape.path).name} encloses no volume ({volume:.3g} m^3; "
                     "not closed or inside out): a dynamic body needs one for its mass; "
                     "make it static or close the mesh"
                 )
-        if not spec.static and shape.kind != "plane":
+        if not spec.static and not isinstance(shape, Plane):
             body = ode.dBodyCreate(self.world)
             mass = ode.dMass()
             self._set_mass(mass, spec, geom)
-            if shape.kind == "mesh":
+            if isinstance(shape, MeshFile):
                 com = np.array([mass.c[0], mass.c[1], mass.c[2]])
                 ode.dMassTranslate(ctypes.byref(mass), *(-com))
             if not (math.isfinite(mass.mass) and mass.mass > 0):
@@ -215,7 +217,7 @@ class PhysicsWorld:
                 )
             ode.dBodySetMass(body, ctypes.byref(mass))
             ode.dGeomSetBody(geom, body)
-            if shape.kind == "mesh" and np.any(com != 0):
+            if isinstance(shape, MeshFile) and np.any(com != 0):
                 ode.dGeomSetOffsetPosition(geom, *(-com))
             record.body, record.mass, record.com_offset = body, float(mass.mass), com
             record.body_addr = _addr(body)
@@ -223,24 +225,25 @@ class PhysicsWorld:
             ode.dBodySetAngularVel(body, *spec.angular_velocity)
         self.bodies[spec.id] = record
         self._by_geom[_addr(geom)] = record
-        if shape.kind != "plane":
+        if not isinstance(shape, Plane):
             self.set_pose(spec.id, np.asarray(spec.position), np.asarray(spec.orientation))
 
     def _set_mass(self, mass: object, spec: BodySpec, geom: object) -> None:
-        rho, s = spec.material.density, spec.shape
-        ref = ctypes.byref(mass)
-        if s.kind == "sphere":
-            ode.dMassSetSphere(ref, rho, s.radius)
-        elif s.kind == "box":
-            ode.dMassSetBox(ref, rho, *s.size)
-        elif s.kind == "plate":
-            ode.dMassSetBox(ref, rho, s.side, s.thickness, s.side)
-        elif s.kind == "capsule":
-            ode.dMassSetCapsule(ref, rho, 3, s.radius, s.length)
-        elif s.kind == "cylinder":
-            ode.dMassSetCylinder(ref, rho, 3, s.radius, s.length)
-        else:
-            ode.dMassSetTrimesh(ref, rho, geom)
+        """ODE's mass of the shape at the material's density (kg/m^3)."""
+        rho, ref = spec.material.density, ctypes.byref(mass)
+        match spec.shape:
+            case Sphere(radius=r):
+                ode.dMassSetSphere(ref, rho, r)
+            case Box(size=size):
+                ode.dMassSetBox(ref, rho, *size)
+            case Plate(side=side, thickness=thickness):
+                ode.dMassSetBox(ref, rho, side, thickness, side)
+            case Capsule(radius=r, length=length):
+                ode.dMassSetCapsule(ref, rho, 3, r, length)
+            case Cylinder(radius=r, length=length):
+                ode.dMassSetCylinder(ref, rho, 3, r, length)
+            case _:
+                ode.dMassSetTrimesh(ref, rho, geom)
 
     def _trimesh(self, positions: NDArray, indices: NDArray) -> tuple[object, list]:
         verts = np.ascontiguousarray(positions, dtype=np.float64)
@@ -294,7 +297,7 @@ class PhysicsWorld:
     def pose(self, body_id: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(position of the body's origin, quaternion w x y z), world."""
         record = self.bodies[body_id]
-        if record.spec.shape.kind == "plane":
+        if isinstance(record.spec.shape, Plane):
             return np.asarray(record.spec.position, dtype=np.float64), np.array([1.0, 0, 0, 0])
         if record.body is not None:
             p = ode.dBodyGetPosition(record.body)

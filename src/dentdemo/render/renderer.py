@@ -12,6 +12,7 @@ from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.shaders import program
 from dentdemo.gl.shaders import set_uniform as _set
 from dentdemo.mesh import primitives
+from dentdemo.model.shapes import Plane, Plate
 from dentdemo.render.camera import OrbitCamera, look_at, orthographic
 from dentdemo.render.looks import GROUND_LOOK, look
 
@@ -159,18 +160,18 @@ class Renderer:
         """(gpu mesh, model, maps or None, material name, checker) for everything to draw."""
         ground_model = np.eye(4)
         for body_id, body in sim.bodies.items():
-            kind = body.spec.shape.kind
-            if kind == "plane":
+            shape = body.spec.shape
+            if isinstance(shape, Plane):
                 ground_model = np.eye(4)
                 ground_model[1, 3] = body.spec.position[1]
                 continue
             model = sim.model(body_id)
             yield body.gpu_mesh, model, body.maps, body.spec.material.name, False
-            if kind == "plate":
-                yield self._plate_body(body.spec.shape), model, None, body.spec.material.name, False
+            if isinstance(shape, Plate):
+                yield self._plate_body(shape), model, None, body.spec.material.name, False
         yield self._ground, ground_model, None, "ground", True
 
-    def _plate_body(self, shape) -> GpuMesh:
+    def _plate_body(self, shape: Plate) -> GpuMesh:
         """The plate's thickness under its dentable top face (drawn, never carved)."""
         key = f"{shape.side}x{shape.thickness}"
         if key not in self._plate_sides:
