@@ -87,7 +87,10 @@ def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
 
 
 def write_bytes(path: Path, data: bytes) -> Path:
-    return write_atomic(path, lambda handle: handle.write(data))
+    def write(handle: BinaryIO) -> None:
+        handle.write(data)
+
+    return write_atomic(path, write)
 
 
 def write_text(path: Path, text: str) -> Path:

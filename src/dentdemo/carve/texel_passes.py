@@ -30,13 +30,14 @@ def texture_space_passes(gl: GLContext) -> dict[str, Pass]:
     passes = {}
     for gutter in (0, 1):
         defines = shader_defines(GUTTER=gutter)
-        geometry = ("carve/texel.geom",) if gutter else ()
+        geometry = "carve/texel.geom" if gutter else None
         for name, state, samplers in (
             ("gather", _GATHER, ("u_address", "u_tool_depth", "u_mask")),
             ("normals", _NORMALS, ("u_height", "u_mask")),
         ):
-            shaders = ("carve/texel.vert", f"carve/{name}.frag", *geometry)
-            prog = program(gl.cache, gl.ctx, *shaders, defines=defines)
+            prog = program(
+                gl.cache, gl.ctx, "carve/texel.vert", f"carve/{name}.frag", geometry, defines
+            )
             passes[f"{name}{gutter}"] = Pass(name, prog, state, samplers)
     gl.cache[key] = passes
     return passes

@@ -158,8 +158,11 @@ def create_headless(backend: str | None = None) -> GLContext:
         if name == "glx" and not os.environ.get("DISPLAY"):
             raise RuntimeError("GLX needs an X display and DISPLAY is not set")
         backend = _GLCONTEXT_BACKEND[name]
-        options = {"backend": backend} if backend else {}
-        ctx = moderngl.create_context(standalone=True, require=REQUIRED_VERSION, **options)
+        if backend is None:
+            ctx = moderngl.create_context(standalone=True, require=REQUIRED_VERSION)
+        else:
+            settings: Any = {"backend": backend}  # moderngl's stubs type extra settings loosely
+            ctx = moderngl.create_context(standalone=True, require=REQUIRED_VERSION, **settings)
     except Exception as exc:  # moderngl raises plain Exception subclasses from glcontext
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise GLUnavailableError(

@@ -125,7 +125,12 @@ class ShaderLibrary:
         if geometry:
             sources["geometry_shader"] = self.expand(geometry, defines)
         try:
-            return ctx.program(**{stage: src.text for stage, src in sources.items()})
+            geometry_source = sources.get("geometry_shader")
+            return ctx.program(
+                vertex_shader=sources["vertex_shader"].text,
+                fragment_shader=sources["fragment_shader"].text if fragment else None,
+                geometry_shader=geometry_source.text if geometry_source else None,
+            )
         except moderngl.Error as exc:
             raise ShaderError(self._explain(str(exc), sources)) from None
 
@@ -156,10 +161,18 @@ def _short(path: Path) -> str:
 
 
 def program(
-    gl_cache: dict, ctx: moderngl.Context, *names: str, defines: dict[str, object] | None = None
+    gl_cache: dict,
+    ctx: moderngl.Context,
+    vertex: str,
+    fragment: str | None = None,
+    geometry: str | None = None,
+    defines: dict[str, object] | None = None,
 ) -> moderngl.Program:
     """A cached program per context and defines: `program(gl.cache, gl.ctx, "a.vert", "a.frag")`."""
-    key = "program:" + "|".join(names) + "|" + repr(sorted((defines or {}).items()))
+    names = (vertex, fragment, geometry)
+    key = (
+        "program:" + "|".join(n or "" for n in names) + "|" + repr(sorted((defines or {}).items()))
+    )
     if key not in gl_cache:
         gl_cache[key] = ShaderLibrary().program(ctx, *names, defines=defines)
     return gl_cache[key]
@@ -170,6 +183,8 @@ def set_uniform(prog: moderngl.Program, name: str, value: object) -> None:
     not use (the normal pass never reads the scatter's height, for one)."""
     member = prog.get(name, None)  # a dict look-up; `name in prog` walks every member
     if member is None:
+        return
+    if not isinstance(member, moderngl.Uniform):
         return
     if isinstance(value, bytes):
         member.write(value)  # matrices, column-major float32

@@ -48,7 +48,7 @@ class Mesh:
     normals: F32  # (n, 3) unit, outward
     uvs: F32  # (n, 2) in [0, 1], unique per surface point (an atlas)
     indices: NDArray[np.uint32]  # (m, 3)
-    tangents: F32 = field(default=None)  # (n, 4): xyz along +u, w = handedness (+1 right-handed)
+    tangents: F32 = field(default=None)  # type: ignore[arg-type]  # made in __post_init__; (n, 4): xyz along +u, w = handedness (+1 right-handed)
     #: The solid that holds the mesh, where it is a built-in shape (None: only its triangles).
     bound: Bound | None = None
 
@@ -120,9 +120,9 @@ class Mesh:
         centre, radius = self.triangle_spheres()
         order = _morton_order(centre)
         count = -(-len(order) // CLUSTER_SIZE)
-        members = np.full(count * CLUSTER_SIZE, -1, dtype=np.int64)
-        members[: len(order)] = order
-        members = members.reshape(count, CLUSTER_SIZE)
+        flat = np.full(count * CLUSTER_SIZE, -1, dtype=np.int64)
+        flat[: len(order)] = order
+        members = flat.reshape(count, CLUSTER_SIZE)
         valid = members >= 0
         safe = np.where(valid, members, members[:, :1])
         group_centre = centre[safe].mean(axis=1)

@@ -155,13 +155,12 @@ def _parse_calibration(source: str, table: Any) -> Calibration:
 
 def _parse_material(source: str, name: str, table: Any, calibration: Calibration) -> Material:
     reader = TableReader(source, f"materials.{name}", table)
-    positive = {"min_value": 0.0, "min_inclusive": False}
-    youngs = reader.number("youngs_modulus_Pa", **positive)
-    yield_stress = reader.number("yield_stress_Pa", **positive)
-    plastic = reader.number("plastic_modulus_Pa", **positive)
+    youngs = reader.positive("youngs_modulus_Pa")
+    yield_stress = reader.positive("yield_stress_Pa")
+    plastic = reader.positive("plastic_modulus_Pa")
     if plastic >= youngs:
         raise reader.fail("plastic_modulus_Pa", f"must be below youngs_modulus_Pa ({youngs:g})")
-    density = reader.number("density_kg_m3", **positive)
+    density = reader.positive("density_kg_m3")
     restitution = reader.number("restitution", min_value=0.0, max_value=1.0, max_inclusive=False)
     friction = reader.number("friction", min_value=0.0, max_value=10.0)
     max_depth = reader.number("max_dent_depth_m", min_value=0.0, max_value=1.0, min_inclusive=False)

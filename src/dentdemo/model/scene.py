@@ -123,7 +123,8 @@ def euler_deg_to_quat(angles: tuple[float, float, float]) -> tuple[float, float,
         q[0] = math.cos(half)
         q[1 + axis] = math.sin(half)
         out = quat_mul(q, out)
-    return tuple(float(x) for x in out / np.linalg.norm(out))
+    w, x, y, z = (float(v) for v in out / np.linalg.norm(out))
+    return (w, x, y, z)
 
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -175,8 +176,8 @@ def _camera(source: str, table: Any) -> CameraSpec:
     r = TableReader(source, "camera", table)
     d = CameraSpec()
     spec = CameraSpec(
-        r.vector("eye", d.eye, max_norm=BOUNDS.position, what="distance from the origin (m)"),
-        r.vector("target", d.target, max_norm=BOUNDS.position, what="distance from the origin (m)"),
+        r.vec3("eye", d.eye, max_norm=BOUNDS.position, what="distance from the origin (m)"),
+        r.vec3("target", d.target, max_norm=BOUNDS.position, what="distance from the origin (m)"),
         r.number("fov_deg", d.fov_deg, min_value=1.0, max_value=170.0),
     )
     r.finish()
@@ -188,12 +189,12 @@ def _camera(source: str, table: Any) -> CameraSpec:
 def _light(source: str, table: Any) -> LightSpec:
     r = TableReader(source, "light", table)
     d = LightSpec()
-    direction = r.vector("direction", d.direction)
+    direction = r.vec3("direction", d.direction)
     if np.linalg.norm(direction) < 1e-9:
         raise r.fail("direction", "must not be zero")
     spec = LightSpec(
         direction,
-        r.vector("colour", d.colour),
+        r.vec3("colour", d.colour),
         r.number("intensity", d.intensity, min_value=0.0),
         r.number("ambient", d.ambient, min_value=0.0, max_value=1.0),
     )
@@ -205,7 +206,7 @@ def _physics(source: str, table: Any) -> PhysicsSpec:
     r = TableReader(source, "physics", table)
     d = PhysicsSpec()
     spec = PhysicsSpec(
-        gravity=r.vector("gravity", d.gravity, max_norm=BOUNDS.gravity, what="magnitude (m/s^2)"),
+        gravity=r.vec3("gravity", d.gravity, max_norm=BOUNDS.gravity, what="magnitude (m/s^2)"),
         dt=r.number("dt", d.dt, min_value=1e-5, max_value=0.1),
         substeps=r.integer("substeps", d.substeps, min_value=1, max_value=BOUNDS.substeps),
         impact_speed_min=r.number(
@@ -236,20 +237,24 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
             "(it names the body's map files)",
         )
     kind = r.string("shape", choices=SHAPE_KINDS)
-    positive = {"min_value": BOUNDS.size_min, "max_value": BOUNDS.size_max}
+
+    def length(key: str, default: float | None = None) -> float:
+        """A size in metres within the plausibility bounds."""
+        return r.number(key, default, min_value=BOUNDS.size_min, max_value=BOUNDS.size_max)
+
     shape: Shape
     if kind == "sphere":
-        shape = Sphere(r.number("radius", **positive))
+        shape = Sphere(length("radius"))
     elif kind == "box":
-        size = r.vector("size", None)
+        size = r.vec3("size", None)
         if not all(BOUNDS.size_min <= x <= BOUNDS.size_max for x in size):
             raise r.fail("size", f"edges must lie in [{BOUNDS.size_min:g}, {BOUNDS.size_max:g}] m")
         shape = Box((size[0], size[1], size[2]))
     elif kind in ("capsule", "cylinder"):
         solid = Capsule if kind == "capsule" else Cylinder
-        shape = solid(r.number("radius", **positive), r.number("length", **positive))
+        shape = solid(length("radius"), length("length"))
     elif kind == "plate":
-        shape = Plate(r.number("side", **positive), r.number("thickness", 0.02, **positive))
+        shape = Plate(length("side"), length("thickness", 0.02))
     elif kind == "mesh":
         mesh = r.string("mesh")
         path = (Path(source).parent / mesh) if not Path(mesh).is_absolute() else Path(mesh)
@@ -265,20 +270,20 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
     static = r.boolean("static", kind == "plane")
     if kind == "plane" and not static:
         raise r.fail("static", "a plane is always static")
-    angles = r.vector("rotation_deg", (0.0, 0.0, 0.0))
+    angles = r.vec3("rotation_deg", (0.0, 0.0, 0.0))
     spec = BodySpec(
         id=body_id,
         shape=shape,
         material=material,
-        position=r.vector(
+        position=r.vec3(
             "position",
             (0.0, 0.0, 0.0),
             max_norm=BOUNDS.position,
             what="distance from the origin (m)",
         ),
         orientation=euler_deg_to_quat(angles),
-        velocity=r.vector("velocity", (0.0, 0.0, 0.0), max_norm=BOUNDS.speed, what="speed (m/s)"),
-        angular_velocity=r.vector(
+        velocity=r.vec3("velocity", (0.0, 0.0, 0.0), max_norm=BOUNDS.speed, what="speed (m/s)"),
+        angular_velocity=r.vec3(
             "angular_velocity", (0.0, 0.0, 0.0), max_norm=BOUNDS.spin, what="spin (rad/s)"
         ),
         static=static,

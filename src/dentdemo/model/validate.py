@@ -69,7 +69,7 @@ class TableReader:
         max_inclusive: bool = True,
     ) -> float:
         if not self._present(key, default):
-            return float(default)
+            return float(default)  # type: ignore[arg-type]  # _present raised when None
         value = self.table[key]
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, "must be a number")
@@ -87,6 +87,21 @@ class TableReader:
             op = "<=" if max_inclusive else "<"
             raise self.fail(key, f"must be {op} {max_value:g}")
         return value
+
+    def positive(self, key: str, default: float | None = None) -> float:
+        """A finite number > 0."""
+        return self.number(key, default, min_value=0.0, min_inclusive=False)
+
+    def vec3(
+        self,
+        key: str,
+        default: Sequence[float] | None,
+        max_norm: float | None = None,
+        what: str = "",
+    ) -> tuple[float, float, float]:
+        """`vector` of three numbers, typed as such."""
+        x, y, z = self.vector(key, default, 3, max_norm, what)
+        return (x, y, z)
 
     def integer(
         self, key: str, default: int | None = None, *, min_value: int, max_value: int
@@ -112,7 +127,7 @@ class TableReader:
         """A list of `length` finite numbers; with `max_norm`, its length is bounded (`what` names
         the quantity and unit in the message)."""
         if not self._present(key, default):
-            return tuple(float(x) for x in default)
+            return tuple(float(x) for x in default or ())
         value = self.table[key]
         if not isinstance(value, list) or len(value) != length:
             raise self.fail(key, f"must be a list of {length} numbers")
@@ -129,7 +144,7 @@ class TableReader:
 
     def string(self, key: str, default: str | None = None, choices: Sequence[str] = ()) -> str:
         if not self._present(key, default):
-            return default
+            return str(default)
         value = self.table[key]
         if not isinstance(value, str):
             raise self.fail(key, "must be a string")
