@@ -28,6 +28,7 @@ from dentdemo.carve.texel_passes import (
 )
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.shaders import program
+from dentdemo.gl.state import preserved
 
 
 @dataclass
@@ -143,8 +144,14 @@ class Carver:
         map only once both are done). Depths that are not positive finite numbers do nothing.
         """
         jobs = self.plan(target, tool, contact, target_depth, tool_depth)
-        ctx = self.gl.ctx
-        saved_fbo, saved_viewport = ctx.fbo, ctx.viewport
+        if jobs:
+            with preserved(self.gl.ctx):  # the host's GL state, as it left it
+                self._run(jobs)
+            self.last_jobs = jobs
+        return jobs
+
+    def _run(self, jobs: list[CarveJob]) -> None:
+        """Passes 2-5 of every direction."""
         with self._timed("address"):
             for slot, job in zip(self._slots, jobs, strict=False):
                 self._address_pass(slot, job)
@@ -166,11 +173,6 @@ class Carver:
                     self._texel,
                     job.target_uniforms,
                 )
-        saved_fbo.use()
-        ctx.viewport = saved_viewport
-        if jobs:
-            self.last_jobs = jobs
-        return jobs
 
     def measure_passes(
         self,
@@ -182,13 +184,11 @@ class Carver:
     ) -> list[CarveJob]:
         """Passes 1-3 only, for the CPU reference path (which then reads their buffers back)."""
         jobs = self.plan(target, tool, contact, target_depth, tool_depth)
-        saved_fbo, saved_viewport = self.gl.ctx.fbo, self.gl.ctx.viewport
-        for slot, job in zip(self._slots, jobs, strict=False):
-            self._address_pass(slot, job)
-        for slot, job in zip(self._slots, jobs, strict=False):
-            self._peel_pass(slot, job)
-        saved_fbo.use()
-        self.gl.ctx.viewport = saved_viewport
+        with preserved(self.gl.ctx):
+            for slot, job in zip(self._slots, jobs, strict=False):
+                self._address_pass(slot, job)
+            for slot, job in zip(self._slots, jobs, strict=False):
+                self._peel_pass(slot, job)
         return jobs
 
     def slot(self, index: int) -> _Scratch:

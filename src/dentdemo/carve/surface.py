@@ -14,6 +14,7 @@ import numpy as np
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.shaders import program
+from dentdemo.gl.state import preserved
 from dentdemo.mesh.mesh import Mesh
 
 #: Largest map side, texels; a bigger request is capped with a warning.
@@ -136,12 +137,9 @@ def create_maps(
     max_dent_depth: float,
     initial_height: np.ndarray | None = None,
 ) -> SurfaceMaps:
-    """Allocate a body's maps, draw its chart mask and build the normals of the start height."""
-    ctx = gl.ctx
-    mesh = gpu_mesh.mesh
-    height = ctx.texture((size, size), 1, dtype="f4")
-    height.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    height.repeat_x = height.repeat_y = False
+    """Allocate a body's maps, draw its chart mask and build the normals of the start height.
+    The host's GL state is left as it was."""
+    heights = None
     if initial_height is not None:
         heights = np.ascontiguousarray(initial_height, dtype=np.float32)
         if heights.shape != (size, size):
@@ -150,10 +148,27 @@ def create_maps(
             )
         if not np.isfinite(heights).all():
             raise DentdemoError("initial height map holds NaN or infinity")
+    with preserved(gl.ctx):
+        return _create_maps(gl, gpu_mesh, size, max_dent_depth, heights)
+
+
+def _create_maps(
+    gl: GLContext,
+    gpu_mesh: GpuMesh,
+    size: int,
+    max_dent_depth: float,
+    heights: np.ndarray | None,
+) -> SurfaceMaps:
+    ctx = gl.ctx
+    mesh = gpu_mesh.mesh
+    height = ctx.texture((size, size), 1, dtype="f4")
+    height.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    height.repeat_x = height.repeat_y = False
+    if heights is not None:
         height.write(np.maximum(heights, -max_dent_depth).tobytes())
     else:
         height.write(np.zeros((size, size), np.float32).tobytes())
-    max_height = 0.0 if initial_height is None else max(float(heights.max()), 0.0)
+    max_height = 0.0 if heights is None else max(float(heights.max()), 0.0)
     normal = ctx.texture((size, size), 4, dtype="f1")
     normal.filter = (moderngl.LINEAR, moderngl.LINEAR)
     normal.repeat_x = normal.repeat_y = False
@@ -177,8 +192,8 @@ def create_maps(
         normal_fbo=ctx.framebuffer([normal]),
         max_height=max_height,
     )
-    release(mask_fbo)
     rebuild_all_normals(gl, gpu_mesh, maps)
+    release(mask_fbo)
     return maps
 
 
@@ -187,8 +202,9 @@ def rebuild_all_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> 
     footprint). Texels outside every chart and its gutter stay flat."""
     from dentdemo.carve.texel_passes import rebuild_normals
 
-    maps.normal_fbo.clear(0.5, 0.5, 1.0, 1.0)  # the flat tangent-space normal (0, 0, 1)
-    rebuild_normals(gl, gpu_mesh, maps, np.eye(4), None)
+    with preserved(gl.ctx):
+        maps.normal_fbo.clear(0.5, 0.5, 1.0, 1.0)  # the flat tangent-space normal (0, 0, 1)
+        rebuild_normals(gl, gpu_mesh, maps, np.eye(4), None)
 
 
 def load_height_png(path: Path, size: int, amplitude: float) -> np.ndarray:

@@ -127,11 +127,12 @@ def release(*objects: Any) -> None:
             continue
         ctx = getattr(obj, "ctx", None)
         if ctx is not None and ctx.fbo is obj:
-            _parking(ctx).use()
+            parking_framebuffer(ctx).use()
         obj.release()
 
 
-def _parking(ctx: moderngl.Context) -> moderngl.Framebuffer:
+def parking_framebuffer(ctx: moderngl.Context) -> moderngl.Framebuffer:
+    """A framebuffer that lives as long as the context (the screen's, where there is one)."""
     if ctx.screen is not None:
         return ctx.screen
     if not isinstance(ctx.extra, dict):

@@ -151,28 +151,49 @@ def _load_mesh(resolved: Path, shown: str, scale: float, mtime_ns: int, size: in
         raise DentdemoError(f"{path}: cannot load mesh ({detail})") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise DentdemoError(f"{path}: no triangles found")
-    positions = np.asarray(loaded.vertices, dtype=np.float64) * scale
-    indices = np.asarray(loaded.faces, dtype=np.uint32)
+    visual_uv = getattr(getattr(loaded, "visual", None), "uv", None)
+    return mesh_from_triangles(
+        np.asarray(loaded.vertices, dtype=np.float64) * scale,
+        np.asarray(loaded.faces),
+        visual_uv,
+        name=str(path),
+        scale=scale,
+    )
+
+
+def mesh_from_triangles(
+    positions: NDArray[np.floating],
+    indices: NDArray[np.integer],
+    uvs: NDArray[np.floating] | None = None,
+    name: str = "mesh",
+    scale: float = 1.0,
+) -> Mesh:
+    """A Mesh from triangles (positions (n, 3) metres, indices (m, 3)) and optional texture
+    coordinates; re-atlased (with one warning) when the coordinates are missing, tiled or
+    overlapping, as the carve needs a unique atlas. `name` names the mesh in messages."""
+    positions = np.asarray(positions, dtype=np.float64)
+    indices = np.asarray(indices, dtype=np.uint32).reshape(-1, 3)
+    if len(indices) == 0:
+        raise DentdemoError(f"{name}: no triangles found")
     if not np.isfinite(positions).all():
-        raise DentdemoError(f"{path}: vertex positions are not finite")
+        raise DentdemoError(f"{name}: vertex positions are not finite")
     tri = positions[indices]
     area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1) / 2
     if not (area > 1e-14).any():  # before any warning: a rejected mesh prints one line only
         raise DentdemoError(
-            f"{path}: every triangle has no area at scale {scale:g} (too small to draw or carve)"
+            f"{name}: every triangle has no area at scale {scale:g} (too small to draw or carve)"
         )
     normals = vertex_normals(positions, indices)
-    visual_uv = getattr(getattr(loaded, "visual", None), "uv", None)
-    uvs = None if visual_uv is None else np.asarray(visual_uv, dtype=np.float64)
-    report = check_uvs(uvs, indices)
+    coords = None if uvs is None else np.asarray(uvs, dtype=np.float64)
+    report = check_uvs(coords, indices)
     if not report.ok:
         warnings.warn(
-            f"{path}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2
+            f"{name}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2
         )
-        positions, normals, uvs, indices = reatlas(positions, indices, normals)
-    mesh = Mesh(path.stem, positions, normals, uvs, indices)
+        positions, normals, coords, indices = reatlas(positions, indices, normals)
+    mesh = Mesh(Path(name).stem, positions, normals, coords, indices)
     if len(mesh.indices) == 0:
         raise DentdemoError(
-            f"{path}: every triangle has no area at scale {scale:g} (too small to draw or carve)"
+            f"{name}: every triangle has no area at scale {scale:g} (too small to draw or carve)"
         )
     return mesh

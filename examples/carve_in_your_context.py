@@ -1,0 +1,139 @@
+"""Carve a dent into a mesh in your own moderngl context, and show it.
+
+The host here is a tiny offscreen renderer: it owns the context, the framebuffer, the shader and
+the GL state. dentdemo only adds a height and a normal map to a mesh and carves into them; the
+host binds the normal map when it shades. Run:
+
+    python examples/carve_in_your_context.py --out dent.png
+
+Without a display the context is a headless EGL one; inside a window, pass your own context.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import moderngl
+import numpy as np
+import trimesh
+from PIL import Image
+
+import dentdemo
+
+# The host's own shader: Lambert light with the surface normal bent by dentdemo's normal map
+# (tangent space, xyz * 0.5 + 0.5; the tangent frame from screen-space derivatives of the uv).
+VERTEX = """
+#version 330 core
+uniform mat4 u_mvp;
+in vec3 in_position;
+in vec3 in_normal;
+in vec2 in_uv;
+out vec3 v_position;
+out vec3 v_normal;
+out vec2 v_uv;
+void main() {
+    v_position = in_position;
+    v_normal = in_normal;
+    v_uv = in_uv;
+    gl_Position = u_mvp * vec4(in_position, 1.0);
+}
+"""
+FRAGMENT = """
+#version 330 core
+uniform sampler2D u_normal_map;
+uniform vec3 u_light;
+in vec3 v_position;
+in vec3 v_normal;
+in vec2 v_uv;
+out vec4 f_colour;
+void main() {
+    vec3 n = normalize(v_normal);
+    vec3 dp1 = dFdx(v_position), dp2 = dFdy(v_position);
+    vec2 du1 = dFdx(v_uv), du2 = dFdy(v_uv);
+    vec3 t = normalize(dp1 * du2.y - dp2 * du1.y);
+    t = normalize(t - n * dot(n, t));
+    vec3 b = cross(n, t) * sign(du1.x * du2.y - du2.x * du1.y);
+    vec3 m = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
+    vec3 bent = normalize(mat3(t, b, n) * m);
+    float light = 0.15 + 0.85 * max(dot(bent, normalize(-u_light)), 0.0);
+    f_colour = vec4(vec3(0.85, 0.55, 0.35) * light, 1.0);
+}
+"""
+
+
+def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    f = np.subtract(target, eye)
+    f = f / np.linalg.norm(f)
+    s = np.cross(f, up)
+    s = s / np.linalg.norm(s)
+    u = np.cross(s, f)
+    view = np.eye(4)
+    view[0, :3], view[1, :3], view[2, :3] = s, u, -f
+    view[:3, 3] = -view[:3, :3] @ eye
+    return view
+
+
+def perspective(fov_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    f = 1.0 / np.tan(np.radians(fov_deg) / 2)
+    out = np.zeros((4, 4))
+    out[0, 0], out[1, 1] = f / aspect, f
+    out[2, 2], out[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
+    out[3, 2] = -1.0
+    return out
+
+
+def run(ctx: moderngl.Context, out: Path, press: bool = True, size=(480, 360)) -> dict:
+    """Make a torus, dent it with a ball (unless `press` is False), render it to `out`."""
+    # A torus without texture coordinates, lying flat (axis +Y): dentdemo gives it a unique
+    # atlas (one warning).
+    torus = trimesh.creation.torus(major_radius=0.2, minor_radius=0.07)
+    torus.apply_transform(trimesh.transformations.rotation_matrix(-np.pi / 2, (1, 0, 0)))
+    mesh = dentdemo.mesh_from_triangles(torus.vertices, torus.faces, name="torus")
+    target = dentdemo.DentableSurface(ctx, mesh, map_size=1024, max_dent_depth=0.02)
+
+    # A 5 cm ball touching the top of the tube at (0.2, 0.07, 0), moving straight down.
+    top = np.array([0.2, 0.07, 0.0])
+    ball = dentdemo.DentableSurface(ctx, dentdemo.shape_mesh(dentdemo.Sphere(0.05)), 256)
+    ball.model = np.eye(4)
+    ball.model[:3, 3] = top + [0.0, 0.05, 0.0]
+    carver = dentdemo.Carver(ctx)
+    pressed = press and carver.press(
+        target, ball, dentdemo.Contact(top, (0.0, -1.0, 0.0)), depth=0.006
+    )
+    depth = float(-target.heights().min())
+
+    # The host's frame: its own framebuffer, program and state.
+    fbo = ctx.framebuffer([ctx.renderbuffer(size, 4, samples=0)], ctx.depth_renderbuffer(size))
+    fbo.use()
+    fbo.clear(0.1, 0.12, 0.15, 1.0, depth=1.0)
+    ctx.enable(moderngl.DEPTH_TEST)
+    prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
+    vbo = ctx.buffer(np.hstack([mesh.positions, mesh.normals, mesh.uvs]).astype("f4").tobytes())
+    ibo = ctx.buffer(mesh.indices.astype("u4").tobytes())
+    vao = ctx.vertex_array(prog, [(vbo, "3f 3f 2f", "in_position", "in_normal", "in_uv")], ibo)
+    mvp = perspective(35.0, size[0] / size[1], 0.05, 5.0) @ look_at((0.3, 0.32, 0.22), top)
+    prog["u_mvp"].write(mvp.T.astype("f4").tobytes())
+    prog["u_light"].value = (-0.3, -1.0, -0.6)
+    target.normal.use(0)
+    prog["u_normal_map"].value = 0
+    vao.render()
+    pixels = np.frombuffer(fbo.read(components=3), dtype=np.uint8).reshape(size[1], size[0], 3)
+    Image.fromarray(pixels[::-1]).save(out)
+
+    for thing in (vao, prog, vbo, ibo, fbo, carver, ball, target):
+        thing.release()
+    return {"pressed": bool(pressed), "depth_m": depth, "image": str(out)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default="dent.png", help="image to write")
+    parser.add_argument("--no-press", action="store_true", help="render without the dent")
+    args = parser.parse_args()
+    ctx = moderngl.create_context(standalone=True, backend="egl", require=330)
+    print(run(ctx, Path(args.out), press=not args.no_press))
+
+
+if __name__ == "__main__":
+    main()
