@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dentdemo import outputs
+from dentdemo import interrupt, outputs
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
 from dentdemo.carve.surface import GpuMesh, create_maps
@@ -158,6 +158,7 @@ def run_presses(
     times = []
     try:
         for _ in range(repeat):
+            interrupt.check()
             gl.ctx.finish()
             start = time.perf_counter()
             jobs = carver.carve(setup.target, setup.tool, setup.contact, depth, tool_depth)

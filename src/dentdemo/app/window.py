@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from dentdemo import interrupt
 from dentdemo.app.controller import DemoController
 from dentdemo.gl.context import GLContext, create_window
 from dentdemo.model.materials import MaterialLibrary
@@ -189,6 +190,7 @@ class DemoWindow:
         fps, frame_ms = 0.0, 0.0
         title_at = last
         while not glfw.window_should_close(self.window):
+            interrupt.check()  # Ctrl-C in the terminal, also while paused
             glfw.poll_events()
             now = time.perf_counter()
             wall = now - last

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dentdemo import __version__
+from dentdemo import __version__, interrupt
 from dentdemo.app.press import make_setup, shape_from_args
 from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
 from dentdemo.carve.carver import Carver
@@ -117,6 +117,7 @@ def per_hit(
         timer = PassTimer(gl.ctx)
         carver.pass_timer = timer
         for _ in range(reps):
+            interrupt.check()
             carver.carve(*press)
             timer.end_hit()
         carver.pass_timer = None

@@ -9,6 +9,8 @@ from collections.abc import Callable, Iterator
 
 import moderngl
 
+from dentdemo import interrupt
+
 
 def median_ms(
     run: Callable[[], None], finish: Callable[[], None], reps: int, warmup: int = 2
@@ -19,6 +21,7 @@ def median_ms(
         finish()
     times = []
     for _ in range(reps):
+        interrupt.check()
         finish()
         start = time.perf_counter()
         run()
@@ -38,6 +41,7 @@ def interleaved_medians(
             finish()
     times: list[list[float]] = [[] for _ in runs]
     for _ in range(reps):
+        interrupt.check()
         for run, out in zip(runs, times, strict=True):
             finish()
             start = time.perf_counter()

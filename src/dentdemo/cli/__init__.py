@@ -9,7 +9,7 @@ import sys
 from collections.abc import Callable, Sequence
 from types import ModuleType
 
-from dentdemo import __version__, log
+from dentdemo import __version__, interrupt, log
 from dentdemo.cli import args as cli_args
 from dentdemo.cli import bench, demo, indent, info, materials, render, simulate
 from dentdemo.errors import DentdemoError, ShaderError
@@ -42,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    interrupt.install()
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -50,7 +51,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if handler is None:
             parser.print_help()
             return 2
-        return handler(args)
+        code = handler(args)
+        interrupt.check()  # a Ctrl-C during the last stretch still ends as one
+        return code
     except ShaderError as exc:  # file and line of each compiler message
         print(str(exc), file=sys.stderr)
         return 1

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo import interrupt
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
 from dentdemo.model.shapes import Box, Capsule, Cylinder, MeshFile, Plane, Plate, Sphere
@@ -330,6 +331,7 @@ class PhysicsWorld:
     def step(self) -> list[Impact]:
         """Advance one frame step (spec.dt) in spec.substeps ODE steps; return its impacts, at most
         one per touching pair (the one with the largest j_elastic), sorted by body ids."""
+        interrupt.check()
         self._pending = {}
         sub_dt = self.spec.dt / self.spec.substeps
         for _ in range(self.spec.substeps):
