@@ -6,6 +6,10 @@ import numpy as np
 
 from dentdemo.app.press import PressSetup, make_setup, shape_from_args
 
+#: Presses made and not yet released; conftest's autouse fixture releases them after every test,
+#: passed or failed, so one failure does not leak GPU objects into the next tests.
+_LIVE: list[PressSetup] = []
+
 
 def setup(
     gl,
@@ -20,7 +24,7 @@ def setup(
     max_dent_depth=0.1,
     tool_height=None,
 ) -> PressSetup:
-    return make_setup(
+    made = make_setup(
         gl,
         shape_from_args(target, list(target_size), "target"),
         shape_from_args(tool, list(tool_size), "tool"),
@@ -31,12 +35,24 @@ def setup(
         max_dent_depth,
         tool_height,
     )
+    _LIVE.append(made)
+    return made
 
 
 def release(s: PressSetup) -> None:
-    for body in (s.target, s.tool):
-        body.maps.release()
-        body.gpu_mesh.release()
+    if any(live is s for live in _LIVE):
+        _LIVE.remove(s)
+        for body in (s.target, s.tool):
+            body.maps.release()
+            body.gpu_mesh.release()
+
+
+def release_all() -> int:
+    """Release every press still alive; how many there were."""
+    count = len(_LIVE)
+    while _LIVE:
+        release(_LIVE[-1])
+    return count
 
 
 def heights(gl, body) -> np.ndarray:

@@ -35,6 +35,16 @@ def gl(gl_session):
     assert err == "GL_NO_ERROR", f"the test left a GL error: {err}"
 
 
+@pytest.fixture(autouse=True)
+def release_presses():
+    """The press fixture's cleanup: every press a test made through carve_helpers.setup is
+    released after the test, whether it passed or failed."""
+    yield
+    import carve_helpers
+
+    carve_helpers.release_all()
+
+
 def _reset_state(ctx) -> None:
     import moderngl
 
@@ -47,6 +57,11 @@ def _reset_state(ctx) -> None:
     ctx.blend_func = moderngl.DEFAULT_BLENDING
     ctx.scissor = None
     ctx.wireframe = False
+    ctx.front_face = "ccw"
+    ctx.cull_face = "back"
+    ctx.point_size = 1.0
+    if ctx.fbo is not None:
+        ctx.viewport = (0, 0, *ctx.fbo.size)
 
 
 @pytest.fixture

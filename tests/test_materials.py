@@ -6,7 +6,7 @@ import pytest
 
 from cli_helpers import dentdemo
 from dentdemo.errors import ConfigError
-from dentdemo.model.materials import load_materials, threshold
+from dentdemo.model.materials import load_materials
 
 GOOD = """
 [materials.tin]
@@ -28,12 +28,13 @@ def test_builtin_presets_cover_the_range():
         assert 0 <= m.restitution < 1
         assert m.plastic_modulus < m.youngs_modulus
         assert m.source
-        assert m.Y == pytest.approx(threshold(m.restitution, lib.calibration.Y_unit))
-        if not m.k_explicit:
-            expected = lib.calibration.k_per_compliance * (
-                1 / m.plastic_modulus - 1 / m.youngs_modulus
-            )
-            assert m.k == pytest.approx(expected)
+    # Eqs. 4 and 5 with the shipped calibration, worked by hand:
+    # steel: k = 2e5 * (1/2e9 - 1/200e9) = 2e5 * 4.95e-10 = 9.9e-5 m/(N s); Y = 1/(1-0.6)-1 = 1.5
+    # aluminium: k = 2e5 * (1/0.7e9 - 1/69e9) = 2.8282e-4 m/(N s); Y = 1/(1-0.5)-1 = 1.0
+    assert lib.get("steel").k == pytest.approx(9.9e-5, rel=1e-9)
+    assert lib.get("steel").Y == pytest.approx(1.5, rel=1e-12)
+    assert lib.get("aluminium").k == pytest.approx(2.82816e-4, rel=1e-5)
+    assert lib.get("aluminium").Y == pytest.approx(1.0, rel=1e-12)
     # Soft metals dent more per impulse than hard ones; rubber barely at all.
     assert lib.get("lead").k > lib.get("aluminium").k > lib.get("steel").k > lib.get("rubber").k
 

@@ -70,4 +70,7 @@ def test_dent_depth_eq4_and_clamp():
 
 
 def test_derived_k():
-    assert derived_k(200e9, 2e9, 2e5) == pytest.approx(2e5 * (1 / 2e9 - 1 / 200e9))
+    # 2e5 * (1/2e9 - 1/200e9) = 2e5 * (5e-10 - 5e-12) = 9.9e-5, by hand.
+    assert derived_k(200e9, 2e9, 2e5) == pytest.approx(9.9e-5, rel=1e-12)
+    # E -> infinity (rigid elastic part): k = 2e5 / 1e9 = 2e-4.
+    assert derived_k(1e300, 1e9, 2e5) == pytest.approx(2e-4, rel=1e-12)

@@ -357,11 +357,20 @@ def test_missing_ode_library_is_one_clear_line():
     assert _without_libode("materials", "--json").returncode == 0
 
 
-def test_every_required_ode_symbol_is_checked():
+def test_every_ode_function_the_code_calls_is_checked_at_load():
+    """Each `ode.dX(` or `loadOde("dX"` in the source must be in REQUIRED_SYMBOLS, so that a
+    library without it fails at start with its name instead of mid-run."""
+    import re
+
     from dentdemo.physics import ode as ode_module
 
-    for name in ("dWorldQuickStep", "dCollide", "dJointCreateContact", "dBodyGetPointVel"):
-        assert name in ode_module.REQUIRED_SYMBOLS
+    source = "\n".join(p.read_text() for p in (ROOT / "src" / "dentdemo").rglob("*.py"))
+    called = set(re.findall(r"\bode\.(d[A-Z]\w+)\(", source))
+    called |= set(re.findall(r'loadOde\(\s*"(d[A-Z]\w+)"', source))
+    # Types (structures and callback prototypes), not functions.
+    called -= {"dMass", "dContact", "dReal", "dTriCallback", "dTriArrayCallback", "dTriRayCallback"}
+    assert len(called) > 40
+    assert called - set(ode_module.REQUIRED_SYMBOLS) == set()
     assert "ODE_double_precision" in ode_module.ode_configuration()
 
 

@@ -129,9 +129,12 @@ def test_panel_actions_through_the_controller(gl, tmp_path):
     # Plate of the panel's material under the orbit target.
     app.panel.plate_material = "copper"
     plate = app.add_plate()
-    assert (
-        app.sim.bodies[plate].spec.material.name == "copper"
-        and app.sim.bodies[plate].maps is not None
+    body = app.sim.bodies[plate]
+    assert body.spec.material.name == "copper" and body.spec.static
+    # A 0.5 m plate at 1024 texels/m: a 512^2 map; its top face at y = 0.02 under the target.
+    assert body.maps.size == (512, 512)
+    np.testing.assert_allclose(
+        body.spec.position, (app.camera.target[0], 0.02, app.camera.target[2]), atol=1e-12
     )
     # Pause, single step, time scale.
     app.toggle_pause()
