@@ -15,7 +15,8 @@ from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
 from dentdemo.model.shapes import Plate
 from dentdemo.render.camera import OrbitCamera
-from dentdemo.render.renderer import Renderer, RenderOptions
+from dentdemo.render.frame import RenderOptions
+from dentdemo.render.renderer import Renderer
 
 DROP_HEIGHT = 1.0  # m above the clicked point
 #: Where the demo's save-state key and button write, and load-state reads (a folder).
@@ -34,12 +35,20 @@ class PanelState:
 
 
 class DemoController:
+    """The sandbox's state and actions: the Simulation, the renderer, the camera, the panel."""
+
     def __init__(
-        self, gl: GLContext, scene: Scene, materials: MaterialLibrary, size: tuple[int, int]
+        self,
+        gl: GLContext,
+        scene: Scene,
+        materials: MaterialLibrary,
+        size: tuple[int, int],
+        *,
+        denting: bool = True,
     ) -> None:
         self.gl = gl
         self.materials = materials
-        self.sim = Simulation(gl, scene, materials)
+        self.sim = Simulation(gl, scene, materials, denting=denting)
         self.renderer = Renderer(gl, size)
         self.camera = OrbitCamera.from_eye(
             scene.camera.eye, scene.camera.target, scene.camera.fov_deg
@@ -163,7 +172,7 @@ class DemoController:
 
     # -- frames --------------------------------------------------------------------------------
     def render(self):
-        return self.renderer.render(self.sim, self.camera, self.options)
+        return self.renderer.render(self.sim.describe(self.camera, self.options))
 
     def resize(self, size: tuple[int, int]) -> None:
         if size != self.renderer.size and min(size) > 0:

@@ -1,5 +1,5 @@
-"""A scene simulated at its fixed dt and drawn on EGL: the same Simulation and Renderer as the
-window, with no window."""
+"""`render`'s work: a scene run through the frame loop (app/loop.py) at its fixed dt on a headless
+EGL context, frames written as PNGs; the window is the loop's other backend."""
 
 from __future__ import annotations
 
@@ -9,9 +9,7 @@ from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import create_headless
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
-from dentdemo.outputs import write_png
-from dentdemo.render.camera import OrbitCamera
-from dentdemo.render.renderer import Renderer, RenderOptions
+from dentdemo.render.frame import RenderOptions
 
 
 def render_headless(
@@ -31,37 +29,29 @@ def render_headless(
     `every_frame`). `load_state` resumes a saved run first (the frames continue it);
     `save_state` saves the run after the last frame, before anything the carve budget deferred
     is flushed, so that a resumed run continues exactly."""
-    from dentdemo.app.simulation import Simulation  # loads ODE
+    from dentdemo.app.controller import DemoController  # loads ODE
+    from dentdemo.app.loop import FrameLoop, ImageBackend
 
     if frames < 1:
         raise DentdemoError(f"--frames: must be at least 1, got {frames}")
     materials = load_materials(materials_files)
     scene = load_scene(scene_file, materials)
-    every = every_frame
     gl = create_headless()
     try:
-        sim = Simulation(gl, scene, materials, denting=denting)
-        renderer = Renderer(gl, size)
-        camera = OrbitCamera.from_eye(scene.camera.eye, scene.camera.target, scene.camera.fov_deg)
-        opts = options or RenderOptions()
+        app = DemoController(gl, scene, materials, size, denting=denting)
+        app.options = options or RenderOptions()
         if load_state is not None:
             from dentdemo.app.state import load_state as resume
 
-            resume(sim, load_state)
-        for frame in range(frames):
-            sim.step()
-            if every or frame == frames - 1:
-                renderer.render(sim, camera, opts)
-                target = out.with_name(out.name % frame) if every else out
-                write_png(target, renderer.read_rgb())
+            resume(app.sim, load_state)
+        FrameLoop(app, ImageBackend(size, out, every_frame), fixed_dt=True).run(frames=frames)
         if save_state is not None:
             from dentdemo.app.state import save_state as save
 
-            save(sim, save_state)
-        sim.apply_queued()  # what the budget deferred, before the maps are exported
+            save(app.sim, save_state)
+        app.sim.apply_queued()  # what the budget deferred, before the maps are exported
         if maps_dir is not None:
-            sim.export_maps(maps_dir)
-        renderer.release()
-        sim.close()
+            app.sim.export_maps(maps_dir)
+        app.close()
     finally:
         gl.release()

@@ -17,14 +17,17 @@ from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
 from dentdemo.gl.context import GLContext
+from dentdemo.mesh import primitives
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model.impulse import dent_depth
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
-from dentdemo.model.shapes import Plane, Sphere
+from dentdemo.model.shapes import Plane, Plate, Sphere
 from dentdemo.physics.simulate import build_world
 from dentdemo.physics.world import Impact, PhysicsWorld, quat_to_matrix
+from dentdemo.render.camera import OrbitCamera
+from dentdemo.render.frame import DrawItem, FrameDescription, Inset, RenderOptions
 
 #: How many recent carve points the contact debug view keeps.
 CARVED_POINTS_KEPT = 1024
@@ -39,6 +42,8 @@ class SimBody:
     gpu_mesh: GpuMesh
     #: A body that takes no dents gets a flat 16^2 stand-in: it can still dent others.
     maps: SurfaceMaps
+    #: A plate's thickness below its dentable top face: drawn, never carved.
+    under: GpuMesh | None = None
 
 
 @dataclass(frozen=True)
@@ -116,7 +121,13 @@ class Simulation:
         if spec.dentable and spec.bump_map:
             start = load_height_png(Path(spec.bump_map), size, spec.bump_height)
         maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth, start)
-        body = SimBody(spec, mesh, gpu, maps)
+        under = None
+        if isinstance(spec.shape, Plate):
+            t = spec.shape.thickness
+            side = primitives.box((spec.shape.side, t, spec.shape.side))
+            side.positions[:, 1] -= t / 2 + 2e-4  # just below the top face
+            under = GpuMesh(self.gl, side)
+        body = SimBody(spec, mesh, gpu, maps, under)
         self.bodies[spec.id] = body
         return body
 
@@ -248,6 +259,40 @@ class Simulation:
         self.carver.carve(target, tool, contact, request.depth_a, request.depth_b)
         self.carved_points.append(point)
 
+    # -- what a frame shows -------------------------------------------------------------------
+    def describe(self, camera: OrbitCamera, options: RenderOptions) -> FrameDescription:
+        """The frame as the renderer needs it: every body at its pose with its maps, the light,
+        the ground, and the debug overlays the options ask for."""
+        items: list[DrawItem] = []
+        ground_y: float | None = None
+        for body_id, body in self.bodies.items():
+            if isinstance(body.spec.shape, Plane):
+                ground_y = body.spec.position[1]
+                continue
+            model = self.model(body_id)
+            look = body.spec.material.name
+            items.append(DrawItem(body.gpu_mesh, model, look, body.maps))
+            if body.under is not None:
+                items.append(DrawItem(body.under, model, look))
+        lines = np.zeros((0, 6), np.float32)
+        if options.contacts:
+            lines = self._contact_lines()
+        inset = None
+        if options.address_map and self.carver.last_jobs:
+            resolution = self.carver.last_jobs[0].camera.resolution
+            inset = Inset(self.carver.slot_textures(0), (resolution[0], resolution[1]))
+        return FrameDescription(items, camera, self.scene.light, options, ground_y, lines, inset)
+
+    def _contact_lines(self) -> NDArray[np.float32]:
+        """Impacts (yellow to red, along the normal, 10 cm) and carves (green ticks, 4 cm up)."""
+        rows = []
+        for impact in self.last_impacts[-512:]:
+            p, n = impact.point, impact.normal
+            rows += [[*p, 1.0, 0.9, 0.1], [*(p + 0.1 * n), 1.0, 0.2, 0.1]]
+        for p in list(self.carved_points)[-256:]:
+            rows += [[*(p + [0, 0.002, 0]), 0.1, 1.0, 0.3], [*(p + [0, 0.04, 0]), 0.1, 1.0, 0.3]]
+        return np.asarray(rows, np.float32).reshape(-1, 6)
+
     # -- lifecycle -----------------------------------------------------------------------------
     def reset(self) -> None:
         """Back to the scene as loaded: bodies, poses and pristine maps."""
@@ -289,3 +334,5 @@ class Simulation:
 def _release_body(body: SimBody) -> None:
     body.gpu_mesh.release()
     body.maps.release()
+    if body.under is not None:
+        body.under.release()

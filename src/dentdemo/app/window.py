@@ -11,8 +11,10 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from dentdemo import interrupt
+import moderngl
+
 from dentdemo.app.controller import DemoController
+from dentdemo.app.loop import FrameLoop
 from dentdemo.gl.context import GLContext, create_window
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import Scene
@@ -36,6 +38,9 @@ class DemoWindow:
         self._press: dict[int, tuple[float, float, int]] = {}  # button -> (x, y, modifiers)
         self._last_cursor = (0.0, 0.0)
         self._shots = 0
+        self._screenshot_at_end: Path | None = None
+        self._presented = self._title_at = time.perf_counter()
+        self._fps = self._frame_ms = 0.0
         glfw.set_mouse_button_callback(self.window, self._on_button)
         glfw.set_cursor_pos_callback(self.window, self._on_cursor)
         glfw.set_scroll_callback(self.window, self._on_scroll)
@@ -181,47 +186,50 @@ class DemoWindow:
         return path
 
     def run(self, screenshot: Path | None = None, exit_after: float | None = None) -> int:
-        """The frame loop. With exit_after, the simulation runs at its fixed dt per frame (so the
-        image is deterministic), the window's image is saved after that many simulated seconds,
-        and the window closes."""
-        glfw, imgui = self.glfw, self.imgui
-        ctx = self.gl.ctx
-        last = time.perf_counter()
-        fps, frame_ms = 0.0, 0.0
-        title_at = last
-        while not glfw.window_should_close(self.window):
-            interrupt.check()  # Ctrl-C in the terminal, also while paused
-            glfw.poll_events()
-            now = time.perf_counter()
-            wall = now - last
-            last = now
-            if exit_after is not None:
-                if not self.app.paused:
-                    self.app.sim.step()
-            else:
-                self.app.update(wall)
-            self.app.resize(tuple(glfw.get_framebuffer_size(self.window)))
-            output = self.app.render()
-            ctx.copy_framebuffer(ctx.screen, output)
-            imgui.backends.opengl3_new_frame()
-            imgui.backends.glfw_new_frame()
-            imgui.new_frame()
-            self._panel(fps, frame_ms)
-            imgui.render()
-            ctx.screen.use()
-            imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
-            frame_ms = (time.perf_counter() - now) * 1e3
-            fps = 0.9 * fps + 0.1 * (1.0 / max(wall, 1e-6)) if fps else 1.0 / max(wall, 1e-6)
-            if now - title_at > 0.5:
-                glfw.set_window_title(self.window, f"dentdemo | {self.app.stats_line(fps)}")
-                title_at = now
-            if exit_after is not None and self.app.sim.world.time >= exit_after - 1e-9:
-                if screenshot is not None:
-                    self.screenshot(screenshot)
-                break
-            glfw.swap_buffers(self.window)
-        self.close()
+        """The frame loop with this window as its backend. With exit_after, the simulation runs
+        at its fixed dt per frame (so the image is deterministic), the window's image is saved
+        after that many simulated seconds, and the window closes."""
+        self._screenshot_at_end = screenshot
+        loop = FrameLoop(self.app, self, fixed_dt=exit_after is not None)
+        try:
+            loop.run(until_time=exit_after)
+        finally:
+            self.close()
         return 0
+
+    # -- the loop's backend --------------------------------------------------------------------
+    def open(self) -> bool:
+        self.glfw.poll_events()
+        return not self.glfw.window_should_close(self.window)
+
+    def size(self) -> tuple[int, int]:
+        w, h = self.glfw.get_framebuffer_size(self.window)
+        return (int(w), int(h))
+
+    def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
+        """The scene, then the panel over it; swapped to the screen (or saved, on the last frame
+        of an --exit-after run)."""
+        glfw, imgui, ctx = self.glfw, self.imgui, self.gl.ctx
+        now = time.perf_counter()
+        wall, self._presented = now - self._presented, now
+        ctx.copy_framebuffer(ctx.screen, output)
+        imgui.backends.opengl3_new_frame()
+        imgui.backends.glfw_new_frame()
+        imgui.new_frame()
+        self._panel(self._fps, self._frame_ms)
+        imgui.render()
+        ctx.screen.use()
+        imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+        self._frame_ms = (time.perf_counter() - now) * 1e3
+        rate = 1.0 / max(wall, 1e-6)
+        self._fps = 0.9 * self._fps + 0.1 * rate if self._fps else rate
+        if now - self._title_at > 0.5:
+            glfw.set_window_title(self.window, f"dentdemo | {app.stats_line(self._fps)}")
+            self._title_at = now
+        if last and self._screenshot_at_end is not None:
+            self.screenshot(self._screenshot_at_end)
+            return
+        glfw.swap_buffers(self.window)
 
     def close(self) -> None:
         self.imgui.backends.opengl3_shutdown()

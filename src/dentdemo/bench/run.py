@@ -152,8 +152,10 @@ def per_hit(
 
 
 def frame_times(gl: GLContext, body_counts: list[int], frames: int, size=(1280, 720)) -> list[dict]:
-    """Sandbox frames (physics step, carves, render at `size`) with N bodies dropped on plates."""
+    """Sandbox frames through the frame loop (physics step, carves, render at `size`) with N
+    bodies dropped on plates; each phase ends with glFinish so that its time is its own."""
     from dentdemo.app.controller import DemoController
+    from dentdemo.app.loop import FrameLoop, ImageBackend
     from dentdemo.model.materials import load_materials
     from dentdemo.model.scene import load_scene
     from dentdemo.resources import assets_dir
@@ -173,21 +175,12 @@ def frame_times(gl: GLContext, body_counts: list[int], frames: int, size=(1280, 
                 radius=float(rng.uniform(0.015, 0.04)),
                 texels_per_metre=512,
             )
-        physics, carve, render, total = [], [], [], []
-        for _ in range(frames):
-            gl.ctx.finish()
-            start = time.perf_counter()
-            app.sim.step()
-            mid = time.perf_counter()
-            gl.ctx.finish()  # the frame's carves done on the GPU
-            carved = time.perf_counter()
-            app.render()
-            gl.ctx.finish()
-            end = time.perf_counter()
-            physics.append(app.sim.stats.physics_ms)
-            carve.append((carved - mid) * 1e3 + app.sim.stats.carve_ms)
-            render.append((end - carved) * 1e3)
-            total.append((end - start) * 1e3)
+        loop = FrameLoop(app, ImageBackend(size, None), fixed_dt=True)
+        timings = [loop.frame(measure=True) for _ in range(frames)]
+        physics = [t.physics_ms for t in timings]
+        carve = [t.carve_ms for t in timings]
+        render = [t.render_ms for t in timings]
+        total = [t.total_ms for t in timings]
         out.append(
             {
                 "bodies": len(app.sim.bodies),

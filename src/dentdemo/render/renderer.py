@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import moderngl
 import numpy as np
 
@@ -12,29 +10,17 @@ from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.shaders import program
 from dentdemo.gl.shaders import set_uniform as _set
 from dentdemo.mesh import primitives
-from dentdemo.model.shapes import Plane, Plate
-from dentdemo.render.camera import OrbitCamera, look_at, orthographic
+from dentdemo.render.camera import look_at, orthographic
+from dentdemo.render.frame import FrameDescription, Inset, RenderOptions
 from dentdemo.render.looks import GROUND_LOOK, look
 
 SHADOW_SIZE = 2048
 GROUND_SIDE = 12.0  # m
 
 
-@dataclass
-class RenderOptions:
-    """What to draw. Every field is a toggle of the panel or the keys."""
-
-    parallax: bool = False
-    #: 0 shaded, 1 height map, 2 normal map.
-    view: int = 0
-    wireframe: bool = False
-    contacts: bool = False
-    address_map: bool = False
-    shadows: bool = True
-
-
 class Renderer:
-    """Draws a Simulation into an MSAA framebuffer and resolves it into `output` (sRGB bytes)."""
+    """Draws a FrameDescription into an MSAA framebuffer and resolves it into `output` (sRGB
+    bytes). It knows nothing of the simulation: what to draw comes in the description."""
 
     def __init__(self, gl: GLContext, size: tuple[int, int], samples: int = 4) -> None:
         self.gl = gl
@@ -63,7 +49,6 @@ class Renderer:
         self._line_vao = ctx.vertex_array(
             self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_colour")]
         )
-        self._plate_sides: dict[str, GpuMesh] = {}
 
     def _lit(self, options: RenderOptions) -> moderngl.Program:
         """The body shader variant for these options (compile-time switches: no cost when off)."""
@@ -77,11 +62,12 @@ class Renderer:
         return self.size[0] / self.size[1]
 
     # -- frame ---------------------------------------------------------------------------------
-    def render(self, sim, camera: OrbitCamera, options: RenderOptions) -> moderngl.Framebuffer:
+    def render(self, description: FrameDescription) -> moderngl.Framebuffer:
         """Draw one frame; the result is in `self.output` (and `self.output_texture`)."""
         ctx = self.gl.ctx
+        camera, light, options = description.camera, description.light, description.options
         view_proj = camera.view_proj(self.aspect)
-        light_dir = np.asarray(sim.scene.light.direction, float)
+        light_dir = np.asarray(light.direction, float)
         light_dir /= np.linalg.norm(light_dir)
         light_view_proj = self._light_matrix(camera.target, light_dir)
         frame = {
@@ -89,10 +75,14 @@ class Renderer:
             "u_light_view_proj": light_view_proj,
             "u_camera_pos": tuple(camera.eye),
             "u_light_dir": tuple(light_dir),
-            "u_light_colour": tuple(np.asarray(sim.scene.light.colour) * sim.scene.light.intensity),
-            "u_ambient": sim.scene.light.ambient,
+            "u_light_colour": tuple(np.asarray(light.colour) * light.intensity),
+            "u_ambient": light.ambient,
         }
-        draws = list(self._draw_list(sim))
+        draws = [(item.mesh, item.model, item.maps, item.look, False) for item in description.items]
+        if description.ground_y is not None:
+            ground = np.eye(4)
+            ground[1, 3] = description.ground_y
+            draws.append((self._ground, ground, None, "ground", True))
         # Shadow pass.
         self.shadow.use()
         ctx.viewport = (0, 0, SHADOW_SIZE, SHADOW_SIZE)
@@ -148,37 +138,13 @@ class Renderer:
                 _set(prog, "u_max_depth", 0.0)
             gpu.vao(prog).render(moderngl.TRIANGLES)
         ctx.wireframe = False
-        if options.contacts:
-            self._draw_contacts(sim, frame)
+        if options.contacts and len(description.lines):
+            self._draw_lines(description.lines, frame)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        if options.address_map and sim.carver.last_jobs:
-            self._draw_address_map(sim)
+        if options.address_map and description.inset is not None:
+            self._draw_inset(description.inset)
         ctx.copy_framebuffer(self.output, self.msaa)
         return self.output
-
-    def _draw_list(self, sim):
-        """(gpu mesh, model, maps or None, material name, checker) for everything to draw."""
-        ground_model = np.eye(4)
-        for body_id, body in sim.bodies.items():
-            shape = body.spec.shape
-            if isinstance(shape, Plane):
-                ground_model = np.eye(4)
-                ground_model[1, 3] = body.spec.position[1]
-                continue
-            model = sim.model(body_id)
-            yield body.gpu_mesh, model, body.maps, body.spec.material.name, False
-            if isinstance(shape, Plate):
-                yield self._plate_body(shape), model, None, body.spec.material.name, False
-        yield self._ground, ground_model, None, "ground", True
-
-    def _plate_body(self, shape: Plate) -> GpuMesh:
-        """The plate's thickness under its dentable top face (drawn, never carved)."""
-        key = f"{shape.side}x{shape.thickness}"
-        if key not in self._plate_sides:
-            mesh = primitives.box((shape.side, shape.thickness, shape.side))
-            mesh.positions[:, 1] -= shape.thickness / 2 + 2e-4  # just below the top face
-            self._plate_sides[key] = GpuMesh(self.gl, mesh)
-        return self._plate_sides[key]
 
     def _light_matrix(self, centre: np.ndarray, direction: np.ndarray) -> np.ndarray:
         radius = 2.5
@@ -186,31 +152,21 @@ class Renderer:
         up = (0.0, 0.0, 1.0) if abs(direction[1]) > 0.99 else (0.0, 1.0, 0.0)
         return orthographic(radius, radius, 0.1, 14.0) @ look_at(eye, centre, up)
 
-    def _draw_contacts(self, sim, frame: dict) -> None:
-        points = []
-        for impact in sim.last_impacts[-512:]:
-            p, n = impact.point, impact.normal
-            points += [*p, 1.0, 0.9, 0.1, *(p + 0.1 * n), 1.0, 0.2, 0.1]
-        for p in list(sim.carved_points)[-256:]:
-            points += [*(p + [0, 0.002, 0]), 0.1, 1.0, 0.3, *(p + [0, 0.04, 0]), 0.1, 1.0, 0.3]
-        if not points:
-            return
-        data = np.asarray(points, "f4")[: self._line_vbo.size // 4]
+    def _draw_lines(self, lines: np.ndarray, frame: dict) -> None:
+        data = np.ascontiguousarray(lines, "f4").ravel()[: self._line_vbo.size // 4]
+        data = data[: len(data) // 12 * 12]  # whole segments
         self._line_vbo.write(data.tobytes())
         _uniforms(self._lines, frame)
         self.gl.ctx.disable(moderngl.DEPTH_TEST)
         self._line_vao.render(moderngl.LINES, vertices=len(data) // 6)
 
-    def _draw_address_map(self, sim) -> None:
-        job = sim.carver.last_jobs[0]
-        slot = sim.carver.slot_textures(0)
-        w, h = job.camera.resolution
+    def _draw_inset(self, inset: Inset) -> None:
         side = min(256, self.size[1] // 3)
         rect = (self.size[0] - side - 8, 8, side, side)
-        slot.use(0)
+        inset.texture.use(0)
         _set(self._overlay, "u_texture", 0)
         _set(self._overlay, "u_rect", rect)
-        _set(self._overlay, "u_extent", (w, h))
+        _set(self._overlay, "u_extent", inset.extent)
         _set(self._overlay, "u_viewport", self.size)
         self._empty_rect.render(moderngl.TRIANGLE_STRIP, vertices=4)
 
@@ -235,8 +191,6 @@ class Renderer:
             self._flat_height,
         )
         self._ground.release()
-        for mesh in self._plate_sides.values():
-            mesh.release()
 
 
 def _matrix(prog: moderngl.Program, name: str, m: np.ndarray) -> None:

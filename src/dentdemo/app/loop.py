@@ -1,0 +1,129 @@
+"""The one frame loop. A frame steps the simulation (one fixed dt, or the wall time owed, scaled
+by the time scale), describes what it shows, renders that and hands the image to a backend: the
+window (app/window.py) or images on disk (`ImageBackend`). `render`, `demo` (with or without a
+window), `--exit-after`, the bench and the tests all run frames through here."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import moderngl
+
+from dentdemo import interrupt
+from dentdemo.app.controller import DemoController
+from dentdemo.outputs import write_png
+
+
+class Backend(Protocol):
+    """Where frames go."""
+
+    def open(self) -> bool:
+        """Handle input; False once the user closed it (a window) or never (images)."""
+        ...
+
+    def size(self) -> tuple[int, int]:
+        """Pixels the next frame should have."""
+        ...
+
+    def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
+        """Show or keep the rendered frame (`last`: the loop ends after it)."""
+        ...
+
+
+@dataclass(frozen=True)
+class FrameTiming:
+    """Milliseconds of one frame by phase (with `measure`, each phase ends with glFinish)."""
+
+    physics_ms: float
+    carve_ms: float
+    render_ms: float
+    total_ms: float
+
+
+class FrameLoop:
+    """Frames of `app` into `backend`. `fixed_dt`: one physics step of the scene's dt per frame
+    (deterministic: headless renders, --exit-after, the bench); else the wall time since the last
+    frame, scaled by the time scale (the interactive window)."""
+
+    def __init__(self, app: DemoController, backend: Backend, fixed_dt: bool) -> None:
+        self.app = app
+        self.backend = backend
+        self.fixed_dt = fixed_dt
+        self.frames = 0
+        self._last = time.perf_counter()
+
+    def frame(self, last: bool = False, measure: bool = False) -> FrameTiming:
+        """Step, render and present one frame."""
+        interrupt.check()
+        finish = self.app.gl.ctx.finish if measure else _nothing
+        start = time.perf_counter()
+        wall, self._last = start - self._last, start
+        if self.fixed_dt:
+            if not self.app.paused:
+                self.app.sim.step()
+        else:
+            self.app.update(wall)
+        stepped = time.perf_counter()
+        finish()  # the frame's carves done on the GPU
+        carved = time.perf_counter()
+        self.app.resize(self.backend.size())
+        output = self.app.render()
+        finish()
+        rendered = time.perf_counter()
+        self.backend.present(self.app, output, last)
+        self.frames += 1
+        stats = self.app.sim.stats
+        return FrameTiming(
+            physics_ms=stats.physics_ms,
+            carve_ms=(carved - stepped) * 1e3 + stats.carve_ms,
+            render_ms=(rendered - carved) * 1e3,
+            total_ms=(rendered - start) * 1e3,
+        )
+
+    def run(self, frames: int | None = None, until_time: float | None = None) -> int:
+        """Frames until the backend closes, `frames` frames were made, or the simulation reached
+        `until_time` seconds (the frame that reaches it is the last). Returns how many."""
+        made = 0
+        while self.backend.open():
+            if frames is not None and made >= frames:
+                break
+            time_left = until_time is not None and (
+                self.app.sim.world.time + self.app.sim.scene.physics.dt >= until_time - 1e-9
+            )
+            last = (frames is not None and made == frames - 1) or bool(time_left)
+            self.frame(last=last)
+            made += 1
+            if last:
+                break
+        return made
+
+
+def _nothing() -> None:
+    return None
+
+
+class ImageBackend:
+    """Frames as PNG files: every frame (`out` holds a %d pattern) or only the last one; none
+    when `out` is None (the bench)."""
+
+    def __init__(self, size: tuple[int, int], out: Path | None, every_frame: bool = False) -> None:
+        self._size = size
+        self.out = out
+        self.every_frame = every_frame
+        self._index = 0
+
+    def open(self) -> bool:
+        return True
+
+    def size(self) -> tuple[int, int]:
+        return self._size
+
+    def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
+        index, self._index = self._index, self._index + 1
+        if self.out is None or not (self.every_frame or last):
+            return
+        target = self.out.with_name(self.out.name % index) if self.every_frame else self.out
+        write_png(target, app.renderer.read_rgb())

@@ -1,0 +1,59 @@
+"""What one frame shows, described for the renderer: the things to draw with their poses and maps,
+the camera, the light and the overlays. The app describes a frame; the renderer only draws it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.carve.surface import GpuMesh, SurfaceMaps
+from dentdemo.model.scene import LightSpec
+from dentdemo.render.camera import OrbitCamera
+
+
+@dataclass
+class RenderOptions:
+    """What to draw. Every field is a toggle of the panel or the keys."""
+
+    parallax: bool = False
+    #: 0 shaded, 1 height map, 2 normal map.
+    view: int = 0
+    wireframe: bool = False
+    contacts: bool = False
+    address_map: bool = False
+    shadows: bool = True
+
+
+@dataclass(frozen=True)
+class DrawItem:
+    """A mesh at a pose (world from local, metres), shaded with the look of `look` (a material
+    name) and its maps (None: flat)."""
+
+    mesh: GpuMesh
+    model: NDArray[np.float64]
+    look: str
+    maps: SurfaceMaps | None = None
+
+
+@dataclass(frozen=True)
+class Inset:
+    """A texture shown in a corner (the last hit's address map): `extent` pixels of it in use."""
+
+    texture: moderngl.Texture
+    extent: tuple[int, int]
+
+
+@dataclass(frozen=True)
+class FrameDescription:
+    items: list[DrawItem]
+    camera: OrbitCamera
+    light: LightSpec
+    options: RenderOptions
+    #: Height of the checkered ground plane, world y metres (None: no ground).
+    ground_y: float | None = 0.0
+    #: Debug lines, (n, 6) float32 rows: position (world m), colour (linear RGB); pairs.
+    lines: NDArray[np.float32] = field(default_factory=lambda: np.zeros((0, 6), np.float32))
+    inset: Inset | None = None
