@@ -82,27 +82,25 @@ class DemoController:
     def save_state(self, directory: Path = STATE_DIR) -> bool:
         """Save every body's maps and the physics state (F5, panel "save state")."""
         from dentdemo.app.state import save_state
-        from dentdemo.errors import DentdemoError
 
-        try:
-            save_state(self.sim, directory)
-        except DentdemoError as exc:
-            self.message = str(exc)
-            return False
-        self.message = f"saved to {directory}/ at t = {self.sim.world.time:.2f} s"
-        return True
+        return self._with_state(save_state, directory, "saved to")
 
     def load_state(self, directory: Path = STATE_DIR) -> bool:
         """Resume a saved state (F9, panel "load state"); a bad one changes nothing."""
         from dentdemo.app.state import load_state
+
+        return self._with_state(load_state, directory, "loaded")
+
+    def _with_state(self, action, directory: Path, done: str) -> bool:  # noqa: ANN001
+        """Run a save or load; its outcome, or the error's one line, becomes `message`."""
         from dentdemo.errors import DentdemoError
 
         try:
-            load_state(self.sim, directory)
+            action(self.sim, directory)
         except DentdemoError as exc:
             self.message = str(exc)
             return False
-        self.message = f"loaded {directory}/ at t = {self.sim.world.time:.2f} s"
+        self.message = f"{done} {directory}/ at t = {self.sim.world.time:.2f} s"
         return True
 
     # -- picking -------------------------------------------------------------------------------

@@ -3,12 +3,10 @@ pass, sandbox frame times against scene size, and the memory of the maps."""
 
 from __future__ import annotations
 
-import io
 import os
 import platform
 import statistics
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -18,7 +16,6 @@ from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
 from dentdemo.gl.context import GLContext, create_headless
-from dentdemo.outputs import write_bytes
 
 #: The press every per-hit measurement uses: a 5 cm ball 1 cm into a 1 m plate, the ball 2 mm.
 PRESS = {"tool_radius_m": 0.05, "plate_side_m": 1.0, "depth_m": 0.01, "tool_depth_m": 0.002}
@@ -241,116 +238,3 @@ def run_bench(mode: str) -> dict:
     finally:
         gl.release()
     return result
-
-
-def print_table(r: dict) -> None:
-    m = r["machine"]
-    print(
-        f"dentdemo {r['dentdemo']} bench ({r['mode']}) on {m['renderer']}, "
-        f"{m['cores']} cores, {m['gl_version']}"
-    )
-    print(
-        f"press: {r['press']['tool_radius_m']} m ball {r['press']['depth_m']} m into a "
-        f"{r['press']['plate_side_m']} m plate, ball dented {r['press']['tool_depth_m']} m; "
-        f"medians of "
-        f"{r['per_hit'][0]['reps']} after 2 warm-ups"
-    )
-    print(
-        f"{'map':>6} {'cam px plate':>12} {'cam px ball':>11} {'GPU ms/hit':>11} "
-        f"{'CPU-path ms':>12} {'CPU/GPU':>8}"
-    )
-    for row in r["per_hit"]:
-        cpu = (
-            f"{row['cpu_ms']:12.2f} {row['cpu_over_gpu']:8.2f}"
-            if "cpu_ms" in row
-            else f"{'-':>12} {'-':>8}"
-        )
-        px = [*row["camera_pixels"], 0, 0]
-        print(f"{row['map_size']:>5}² {px[0]:>12} {px[1]:>11} {row['gpu_ms']:11.2f} {cpu}")
-    same = r.get("same_dent", [])
-    if same:
-        print(
-            "same dent in texels:  "
-            + ";  ".join(
-                f"{d['plate_side_m']:g} m plate at {d['map_size']}² {d['gpu_ms']:.2f} ms"
-                for d in same
-            )
-            + f";  ratio {same[-1]['gpu_ms'] / same[0]['gpu_ms']:.2f}"
-        )
-    names = sorted(
-        {p["pass"] for p in r["passes"]}, key=["address", "peel", "gather", "normals"].index
-    )
-    timer = "GPU timer queries" if r["passes"] and r["passes"][0]["gpu_timer"] else "wall time"
-    print(f"by pass, ms ({timer}):  " + "  ".join(f"{n:>8}" for n in names))
-    for size in [row["map_size"] for row in r["per_hit"]]:
-        vals = {p["pass"]: p["ms"] for p in r["passes"] if p["map_size"] == size}
-        print(f"{size:>5}²{'':19}" + "  ".join(f"{vals.get(n, 0):8.2f}" for n in names))
-    print(
-        f"{'bodies':>6} {'frame ms':>9} {'physics':>8} {'carve':>7} {'render':>7}"
-        "  (1280x720, medians)"
-    )
-    for f in r["frames"]:
-        print(
-            f"{f['bodies']:>6} {f['frame_ms']:9.1f} {f['physics_ms']:8.1f} "
-            f"{f['carve_ms']:7.1f} {f['render_ms']:7.1f}"
-        )
-    mem = r["memory"]
-    print(
-        f"maps: {mem['bytes_per_texel']} bytes/texel ({mem['layout']}); 1024² = "
-        f"{mem['map_bytes']['1024'] / 2**20:.1f} MiB, "
-        f"4096² = {mem['map_bytes']['4096'] / 2**20:.0f} MiB; "
-        f"carve scratch {mem['scratch_bytes'] / 2**20:.0f} MiB"
-    )
-    print(
-        f"CPU path vs GPU path: max |height difference| {r['agreement']['max_abs_diff_m']:.2e} m; "
-        f"bench took {r['seconds']:.1f} s"
-    )
-
-
-def plot(r: dict, path: Path) -> None:
-    """Cost per hit against map size, both paths, log-log, drawn with Pillow."""
-    from PIL import Image, ImageDraw
-
-    W, H, pad = 720, 440, 70
-    img = Image.new("RGB", (W, H), "white")
-    d = ImageDraw.Draw(img)
-    rows = r["per_hit"]
-    xs = [row["map_size"] for row in rows]
-    ys = [row["gpu_ms"] for row in rows] + [row["cpu_ms"] for row in rows if "cpu_ms" in row]
-    lx0, lx1 = np.log2(min(xs)), np.log2(max(xs)) if max(xs) > min(xs) else np.log2(min(xs)) + 1
-    ly0, ly1 = np.log10(min(ys)) - 0.1, np.log10(max(ys)) + 0.1
-
-    def to_px(x, y):
-        return (
-            pad + (np.log2(x) - lx0) / (lx1 - lx0) * (W - 2 * pad),
-            H - pad - (np.log10(y) - ly0) / (ly1 - ly0) * (H - 2 * pad),
-        )
-
-    d.rectangle([pad, pad, W - pad, H - pad], outline="black")
-    for x in xs:
-        px, _ = to_px(x, 10**ly0)
-        d.text((px - 14, H - pad + 6), f"{x}^2", fill="black")
-    for e in range(int(np.floor(ly0)), int(np.ceil(ly1)) + 1):
-        for m in (1, 1.5, 2, 3, 5, 7):
-            y = m * 10.0**e
-            if ly0 <= np.log10(y) <= ly1:
-                _, py = to_px(min(xs), y)
-                d.line([pad - 4, py, pad, py], fill="black")
-                d.text((8, py - 6), f"{y:g} ms", fill="black")
-    for key, colour, label in (
-        ("gpu_ms", (30, 90, 200), "GPU-resident path (ours)"),
-        ("cpu_ms", (200, 60, 30), "CPU update path (the paper's place for it)"),
-    ):
-        pts = [to_px(row["map_size"], row[key]) for row in rows if key in row]
-        if len(pts) > 1:
-            d.line(pts, fill=colour, width=3)
-        for p in pts:
-            d.ellipse([p[0] - 4, p[1] - 4, p[0] + 4, p[1] + 4], fill=colour)
-        ly = 20 if key == "gpu_ms" else 38
-        d.line([pad + 10, ly + 6, pad + 40, ly + 6], fill=colour, width=3)
-        d.text((pad + 48, ly), label, fill="black")
-    d.text((W // 2 - 120, H - 30), "height-map size (same dent in metres)", fill="black")
-    d.text((W - pad - 260, 20), f"{r['machine']['renderer'][:38]}", fill="black")
-    buffer = io.BytesIO()
-    img.save(buffer, format="PNG")
-    write_bytes(path, buffer.getvalue())

@@ -27,7 +27,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from dentdemo.bench.run import plot, print_table, run_bench
+    from dentdemo.bench.report import plot, print_table
+    from dentdemo.bench.run import run_bench
 
     json_path = check_output_file("--json", Path(args.json)) if args.json else None
     plot_path = check_output_file("--plot", Path(args.plot)) if args.plot else None

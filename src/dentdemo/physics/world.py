@@ -11,7 +11,6 @@ import ctypes
 import math
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,7 +18,8 @@ from numpy.typing import NDArray
 from dentdemo import interrupt
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
-from dentdemo.model.shapes import Box, Capsule, Cylinder, MeshFile, Plane, Plate, Sphere
+from dentdemo.model.shapes import MeshFile, Plane
+from dentdemo.physics.geoms import body_mass, destroy_geom, make_geom
 from dentdemo.physics.ode import fast, ode
 
 MAX_CONTACTS = 8
@@ -107,12 +107,6 @@ class WorldState:
     bodies: dict[str, tuple[list[float], list[float], list[float], list[float]]]
 
 
-def _enclosed_volume(positions: NDArray, indices: NDArray) -> float:
-    """Signed volume of a triangle mesh, m^3 (positive for a closed, outward-facing mesh)."""
-    p = np.asarray(positions, dtype=np.float64)[np.asarray(indices, dtype=np.int64)]
-    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0)
-
-
 def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
     w, x, y, z = q
     return np.array(
@@ -170,52 +164,15 @@ class PhysicsWorld:
         if spec.id in self.bodies:
             raise ValueError(f"duplicate body id '{spec.id}'")
         shape = spec.shape
-        keep: list = []
-        com = np.zeros(3)
-        match shape:
-            case Plane():
-                geom = ode.dCreatePlane(self.space, 0.0, 1.0, 0.0, spec.position[1])
-            case Sphere(radius=r):
-                geom = ode.dCreateSphere(self.space, r)
-            case Box(size=size):
-                geom = ode.dCreateBox(self.space, *size)
-            case Plate(side=side, thickness=thickness):
-                geom = ode.dCreateBox(self.space, side, thickness, side)
-                com = np.array([0.0, -thickness / 2, 0.0])
-            case Capsule(radius=r, length=length):
-                geom = ode.dCreateCapsule(self.space, r, length)
-            case Cylinder(radius=r, length=length):
-                geom = ode.dCreateCylinder(self.space, r, length)
-            case MeshFile():
-                if mesh_arrays is None:
-                    raise ValueError(f"body '{spec.id}': a mesh shape needs its triangles")
-                geom, keep = self._trimesh(*mesh_arrays)
-            case _:
-                raise ValueError(f"not a shape: {shape!r}")
+        geom, keep, com = make_geom(self.space, spec, mesh_arrays)
         record = _Body(spec, geom, None, math.inf, com, keep)
-        if not spec.static and isinstance(shape, MeshFile):
-            volume = _enclosed_volume(*mesh_arrays)  # type: ignore[misc]
-            if not volume > 1e-12:
-                ode.dGeomDestroy(geom)
-                ode.dGeomTriMeshDataDestroy(keep[2])
-                raise ValueError(
-                    f"mesh {Path(shape.path).name} encloses no volume ({volume:.3g} m^3; "
-                    "not closed or inside out): a dynamic body needs one for its mass; "
-                    "make it static or close the mesh"
-                )
         if not spec.static and not isinstance(shape, Plane):
+            try:
+                mass, com = body_mass(spec, geom, mesh_arrays, com)
+            except ValueError:
+                destroy_geom(geom, keep)
+                raise
             body = ode.dBodyCreate(self.world)
-            mass = ode.dMass()
-            self._set_mass(mass, spec, geom)
-            if isinstance(shape, MeshFile):
-                com = np.array([mass.c[0], mass.c[1], mass.c[2]])
-                ode.dMassTranslate(ctypes.byref(mass), *(-com))
-            if not (math.isfinite(mass.mass) and mass.mass > 0):
-                ode.dGeomDestroy(geom)
-                ode.dBodyDestroy(body)
-                raise ValueError(
-                    f"body '{spec.id}': mass {mass.mass} kg is not positive and finite"
-                )
             ode.dBodySetMass(body, ctypes.byref(mass))
             ode.dGeomSetBody(geom, body)
             if isinstance(shape, MeshFile) and np.any(com != 0):
@@ -229,50 +186,14 @@ class PhysicsWorld:
         if not isinstance(shape, Plane):
             self.set_pose(spec.id, np.asarray(spec.position), np.asarray(spec.orientation))
 
-    def _set_mass(self, mass: object, spec: BodySpec, geom: object) -> None:
-        """ODE's mass of the shape at the material's density (kg/m^3)."""
-        rho, ref = spec.material.density, ctypes.byref(mass)
-        match spec.shape:
-            case Sphere(radius=r):
-                ode.dMassSetSphere(ref, rho, r)
-            case Box(size=size):
-                ode.dMassSetBox(ref, rho, *size)
-            case Plate(side=side, thickness=thickness):
-                ode.dMassSetBox(ref, rho, side, thickness, side)
-            case Capsule(radius=r, length=length):
-                ode.dMassSetCapsule(ref, rho, 3, r, length)
-            case Cylinder(radius=r, length=length):
-                ode.dMassSetCylinder(ref, rho, 3, r, length)
-            case _:
-                ode.dMassSetTrimesh(ref, rho, geom)
-
-    def _trimesh(self, positions: NDArray, indices: NDArray) -> tuple[object, list]:
-        verts = np.ascontiguousarray(positions, dtype=np.float64)
-        tris = np.ascontiguousarray(indices, dtype=np.uint32)
-        data = ode.dGeomTriMeshDataCreate()
-        ode.dGeomTriMeshDataBuildDouble(
-            data,
-            verts.ctypes.data_as(ctypes.c_void_p),
-            3 * 8,
-            len(verts),
-            tris.ctypes.data_as(ctypes.c_void_p),
-            tris.size,
-            3 * 4,
-        )
-        null = (ode.dTriCallback(), ode.dTriArrayCallback(), ode.dTriRayCallback())
-        geom = ode.dCreateTriMesh(self.space, data, *null)
-        return geom, [verts, tris, data]
-
     def remove_body(self, body_id: str) -> None:
         record = self.bodies.pop(body_id)
         geom_addr = _addr(record.geom)
         self._by_geom.pop(geom_addr, None)
         self._pair_surface = {k: v for k, v in self._pair_surface.items() if geom_addr not in k}
-        ode.dGeomDestroy(record.geom)
+        destroy_geom(record.geom, record.keep_alive)
         if record.body is not None:
             ode.dBodyDestroy(record.body)
-        if record.keep_alive:
-            ode.dGeomTriMeshDataDestroy(record.keep_alive[2])
 
     def set_pose(self, body_id: str, position: NDArray, quaternion: NDArray) -> None:
         record = self.bodies[body_id]
