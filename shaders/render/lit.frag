@@ -1,24 +1,37 @@
 #version 330 core
-// Blinn-Phong with the body's rebuilt tangent-space normal map, a PCF-filtered directional
-// shadow, optional parallax occlusion mapping from the height map, and debug views.
-// Compile-time variants (the renderer sets them): PARALLAX 0/1, VIEW 0 shaded / 1 height / 2 normal.
+// Physically based shading of the bodies: metallic-roughness GGX (Cook-Torrance) for the sun,
+// image-based light from the baked environment (prefiltered radiance by roughness, irradiance),
+// the body's rebuilt tangent-space normal map, a PCF-filtered shadow, optional parallax occlusion
+// mapping, procedural surface detail, ACES tone mapping and exact sRGB output. Debug views
+// replace the shading. Compile-time variants: PARALLAX 0/1; VIEW 0 shaded / 1 height / 2 normal;
+// SHADOW_TAPS 1 or 4 (the quality preset).
 #ifndef PARALLAX
 #define PARALLAX 0
 #endif
 #ifndef VIEW
 #define VIEW 0
 #endif
+#ifndef SHADOW_TAPS
+#define SHADOW_TAPS 4
+#endif
 #include "frame.glsl"
 #include "../include/common.glsl"
-#include "../include/srgb.glsl"
+#include "../include/equirect.glsl"
+#include "../include/tonemap.glsl"
+#include "surface_detail.glsl"
 
 uniform sampler2D u_normal_map;   // RGBA8 tangent-space normal
 uniform sampler2D u_height_map;   // R32F metres (negative = dent)
 uniform sampler2DShadow u_shadow_map;  // light depth in [0, 1], compared in hardware
-uniform vec3 u_albedo;            // linear RGB
-uniform float u_specular;         // specular strength
-uniform float u_shininess;        // Blinn-Phong exponent
+uniform sampler2D u_radiance;     // equirect atlas: u_levels rows, roughness row / (levels - 1)
+uniform sampler2D u_irradiance;   // equirect, irradiance / pi
+uniform int u_levels;
+uniform vec3 u_base_colour;       // linear RGB
+uniform float u_metalness;        // 0 dielectric .. 1 metal
+uniform float u_roughness;        // perceptual; GGX alpha = roughness^2
+uniform int u_surface;            // procedural detail (surface_detail.glsl)
 uniform bool u_checker;           // the ground's checker pattern
+uniform float u_exposure;         // scene-referred scale before the tone curve
 uniform vec2 u_uv_per_metre;      // texture-space length of one metre along +u and +v
 uniform float u_max_depth;        // deepest possible dent, metres (parallax search range)
 
@@ -48,7 +61,6 @@ vec2 parallax_uv(vec2 uv, vec3 view_ts) {
         ray += layer;
         surf = depth_at(cur);
     }
-    // Refine between the last two samples.
     vec2 prev = cur - step_uv;
     float after = surf - ray;
     float before = depth_at(prev) - (ray - layer);
@@ -60,14 +72,50 @@ float shadow_factor(vec3 n) {
     vec3 p = v_light_clip.xyz / v_light_clip.w * 0.5 + 0.5;
     if (any(lessThan(p, vec3(0.0))) || any(greaterThan(p, vec3(1.0)))) return 1.0;
     float bias = 0.0015 + 0.002 * (1.0 - max(dot(n, -u_light_dir), 0.0));
-    // Four bilinear comparison taps: a 3 x 3 texel percentage-closer filter.
+#if SHADOW_TAPS == 1
+    return texture(u_shadow_map, vec3(p.xy, p.z - bias));
+#else
     vec2 texel = 1.0 / vec2(textureSize(u_shadow_map, 0));
     float lit = 0.0;
-    for (int i = 0; i < 4; ++i) {
+    for (int i = 0; i < 4; ++i) {  // four bilinear comparisons: a 3 x 3 texel PCF
         vec2 offset = (vec2(i & 1, i >> 1) - 0.5) * texel;
         lit += texture(u_shadow_map, vec3(p.xy + offset, p.z - bias));
     }
     return lit * 0.25;
+#endif
+}
+
+// Prefiltered radiance along d for a roughness: bilinear within a row, linear between rows.
+vec3 radiance(vec3 d, float roughness) {
+    vec2 uv = equirect_uv(d);
+    float row = clamp(roughness, 0.0, 1.0) * float(u_levels - 1);
+    float r0 = floor(row);
+    float r1 = min(r0 + 1.0, float(u_levels - 1));
+    float texel_v = 1.0 / float(textureSize(u_radiance, 0).y);
+    float v = clamp(uv.y, 0.5 * float(u_levels) * texel_v, 1.0 - 0.5 * float(u_levels) * texel_v);
+    vec3 a = texture(u_radiance, vec2(uv.x, (r0 + v) / float(u_levels))).rgb;
+    vec3 b = texture(u_radiance, vec2(uv.x, (r1 + v) / float(u_levels))).rgb;
+    return mix(a, b, row - r0);
+}
+
+// GGX normal distribution, Smith-Schlick visibility and Schlick Fresnel.
+float ggx(float nh, float a) {
+    float a2 = a * a, d = nh * nh * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+float smith_visibility(float nv, float nl, float roughness) {
+    float k = (roughness + 1.0) * (roughness + 1.0) / 8.0;
+    return 0.25 / ((nv * (1.0 - k) + k) * (nl * (1.0 - k) + k));
+}
+vec3 fresnel(float cos_theta, vec3 f0) { return f0 + (1.0 - f0) * pow(1.0 - cos_theta, 5.0); }
+
+// The split-sum environment BRDF, analytic fit (B. Karis, "Physically based shading on mobile").
+vec2 env_brdf(float nv, float roughness) {
+    const vec4 c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
+    const vec4 c1 = vec4(1.0, 0.0425, 1.04, -0.04);
+    vec4 r = roughness * c0 + c1;
+    float a004 = min(r.x * r.x, exp2(-9.28 * nv)) * r.x + r.y;
+    return vec2(-1.04, 1.04) * a004 + r.zw;
 }
 
 void main() {
@@ -87,17 +135,35 @@ void main() {
     f_colour = vec4(texture(u_normal_map, uv).rgb, 1.0);
     return;
 #endif
-    vec3 albedo = u_albedo;
+    vec3 base = u_base_colour;
+    float roughness = u_roughness;
+    surface_detail(u_surface, uv, v_world, base, roughness);
     if (u_checker) {
         vec2 cell = floor(v_world.xz / 0.25);
-        albedo *= mod(cell.x + cell.y, 2.0) < 0.5 ? 1.0 : 0.8;
+        base *= mod(cell.x + cell.y, 2.0) < 0.5 ? 1.0 : 0.75;
     }
+    roughness = clamp(roughness, 0.03, 1.0);
+    float a = roughness * roughness;
+    vec3 f0 = mix(vec3(0.04), base, u_metalness);
+    vec3 diffuse_colour = base * (1.0 - u_metalness);
+    float nv = max(dot(n, view), 1e-4);
+
+    // The sun.
     vec3 l = -u_light_dir;
-    float diffuse = max(dot(n, l), 0.0);
-    vec3 h = normalize(l + view);
-    float spec = diffuse > 0.0 ? u_specular * pow(max(dot(n, h), 0.0), u_shininess) : 0.0;
-    float shadow = shadow_factor(normalize(v_normal));
-    vec3 sky = mix(vec3(0.35, 0.33, 0.3), vec3(0.55, 0.65, 0.8), n.y * 0.5 + 0.5);
-    vec3 colour = albedo * (u_ambient * sky) + u_light_colour * shadow * (albedo * diffuse + spec);
-    f_colour = vec4(linear_to_srgb(colour / (1.0 + colour * 0.15)), 1.0);
+    float nl = max(dot(n, l), 0.0);
+    vec3 colour = vec3(0.0);
+    if (nl > 0.0) {
+        vec3 h = normalize(l + view);
+        vec3 f = fresnel(max(dot(view, h), 0.0), f0);
+        vec3 specular = ggx(max(dot(n, h), 0.0), a) * smith_visibility(nv, nl, roughness) * f;
+        vec3 diffuse = (1.0 - f) * diffuse_colour / PI;
+        colour += (diffuse + specular) * u_light_colour * nl * shadow_factor(normalize(v_normal));
+    }
+    // The environment.
+    vec3 r = reflect(-view, n);
+    vec2 ab = env_brdf(nv, roughness);
+    vec3 specular_ibl = radiance(r, roughness) * (f0 * ab.x + ab.y);
+    vec3 diffuse_ibl = texture(u_irradiance, equirect_uv(n)).rgb * diffuse_colour;
+    colour += (specular_ibl + diffuse_ibl) * u_ambient;
+    f_colour = vec4(tonemap(colour, u_exposure), 1.0);
 }

@@ -270,7 +270,7 @@ class Simulation:
                 ground_y = body.spec.position[1]
                 continue
             model = self.model(body_id)
-            look = body.spec.material.name
+            look = body.spec.material.appearance
             items.append(DrawItem(body.gpu_mesh, model, look, body.maps))
             if body.under is not None:
                 items.append(DrawItem(body.under, model, look))

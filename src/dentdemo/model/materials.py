@@ -28,6 +28,24 @@ class Calibration:
     Y_unit: float = 1.0
 
 
+#: Surface character the renderer adds procedurally (base colour and roughness detail).
+SURFACES = ("plain", "brushed", "cast", "grain", "matte")
+
+
+@dataclass(frozen=True)
+class Appearance:
+    """How a material looks under physically based shading (metallic-roughness)."""
+
+    #: Linear RGB base colour (albedo of a dielectric, F0 of a metal), each in [0, 1].
+    base_colour: tuple[float, float, float] = (0.5, 0.5, 0.5)
+    #: 0 dielectric, 1 metal.
+    metalness: float = 0.0
+    #: Perceptual roughness (GGX alpha = roughness^2), in [0.02, 1].
+    roughness: float = 0.5
+    #: Procedural detail: one of SURFACES.
+    surface: str = "plain"
+
+
 @dataclass(frozen=True)
 class Material:
     """One material preset; every field in SI units."""
@@ -55,6 +73,8 @@ class Material:
     Y: float
     #: Where the numbers come from.
     source: str
+    #: Shading (optional keys of the file; defaults: grey, dielectric, half rough, plain).
+    appearance: Appearance = Appearance()
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -70,6 +90,10 @@ class Material:
             "k_explicit": self.k_explicit,
             "Y_Ns": self.Y,
             "source": self.source,
+            "base_colour": list(self.appearance.base_colour),
+            "metalness": self.appearance.metalness,
+            "roughness": self.appearance.roughness,
+            "surface": self.appearance.surface,
         }
 
 
@@ -173,6 +197,16 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
     if not math.isfinite(k):
         raise reader.fail("k_m_per_Ns", "derived k is not finite")
     source_text = reader.string("source", "")
+    default = Appearance()
+    colour = reader.vec3("base_colour", default.base_colour)
+    if not all(0.0 <= c <= 1.0 for c in colour):
+        raise reader.fail("base_colour", "each component must lie in [0, 1] (linear RGB)")
+    appearance = Appearance(
+        base_colour=colour,
+        metalness=reader.number("metalness", default.metalness, min_value=0.0, max_value=1.0),
+        roughness=reader.number("roughness", default.roughness, min_value=0.02, max_value=1.0),
+        surface=reader.string("surface", default.surface, choices=SURFACES),
+    )
     reader.finish()
     return Material(
         name=name,
@@ -187,4 +221,5 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
         k_explicit=explicit,
         Y=threshold(restitution, calibration.Y_unit),
         source=source_text,
+        appearance=appearance,
     )

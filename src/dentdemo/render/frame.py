@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
+from dentdemo.model.materials import Appearance
 from dentdemo.model.scene import LightSpec
 from dentdemo.render.camera import OrbitCamera
 
@@ -29,12 +30,12 @@ class RenderOptions:
 
 @dataclass(frozen=True)
 class DrawItem:
-    """A mesh at a pose (world from local, metres), shaded with the look of `look` (a material
-    name) and its maps (None: flat)."""
+    """A mesh at a pose (world from local, metres), shaded with `look` and its maps (None:
+    flat)."""
 
     mesh: GpuMesh
     model: NDArray[np.float64]
-    look: str
+    look: Appearance
     maps: SurfaceMaps | None = None
 
 

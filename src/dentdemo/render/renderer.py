@@ -11,28 +11,35 @@ from dentdemo.gl.shaders import program
 from dentdemo.gl.shaders import set_uniform as _set
 from dentdemo.mesh import primitives
 from dentdemo.render.camera import look_at, orthographic
+from dentdemo.render.environment import LEVELS, environment
 from dentdemo.render.frame import FrameDescription, Inset, RenderOptions
-from dentdemo.render.looks import GROUND_LOOK, look
+from dentdemo.render.looks import GROUND, surface_code
+from dentdemo.render.quality import Quality, preset
 
-SHADOW_SIZE = 2048
 GROUND_SIDE = 12.0  # m
+#: Scene-referred scale before the tone curve.
+EXPOSURE = 1.0
 
 
 class Renderer:
     """Draws a FrameDescription into an MSAA framebuffer and resolves it into `output` (sRGB
     bytes). It knows nothing of the simulation: what to draw comes in the description."""
 
-    def __init__(self, gl: GLContext, size: tuple[int, int], samples: int = 4) -> None:
+    def __init__(
+        self, gl: GLContext, size: tuple[int, int], quality: Quality | None = None
+    ) -> None:
         self.gl = gl
         ctx = gl.ctx
         self.size = size
-        samples = min(samples, ctx.max_samples)
+        self.quality = quality or preset(None, gl.software)
+        samples = min(self.quality.msaa, ctx.max_samples)
+        shadow_size = self.quality.shadow_size
         self._msaa_colour = ctx.renderbuffer(size, 4, samples=samples)
         self._msaa_depth = ctx.depth_renderbuffer(size, samples=samples)
         self.msaa = ctx.framebuffer([self._msaa_colour], self._msaa_depth)
         self.output_texture = ctx.texture(size, 4)
         self.output = ctx.framebuffer([self.output_texture])
-        self.shadow_texture = ctx.depth_texture((SHADOW_SIZE, SHADOW_SIZE))
+        self.shadow_texture = ctx.depth_texture((shadow_size, shadow_size))
         self.shadow_texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.shadow_texture.compare_func = "<="  # hardware comparison: bilinear PCF per tap
         self.shadow = ctx.framebuffer(depth_attachment=self.shadow_texture)
@@ -52,7 +59,11 @@ class Renderer:
 
     def _lit(self, options: RenderOptions) -> moderngl.Program:
         """The body shader variant for these options (compile-time switches: no cost when off)."""
-        defines = {"PARALLAX": int(options.parallax), "VIEW": int(options.view)}
+        defines = {
+            "PARALLAX": int(options.parallax),
+            "VIEW": int(options.view),
+            "SHADOW_TAPS": self.quality.shadow_taps,
+        }
         return program(
             self.gl.cache, self.gl.ctx, "render/lit.vert", "render/lit.frag", defines=defines
         )
@@ -82,10 +93,11 @@ class Renderer:
         if description.ground_y is not None:
             ground = np.eye(4)
             ground[1, 3] = description.ground_y
-            draws.append((self._ground, ground, None, "ground", True))
+            draws.append((self._ground, ground, None, GROUND, True))
+        env = environment(self.gl, tuple(light_dir))
         # Shadow pass.
         self.shadow.use()
-        ctx.viewport = (0, 0, SHADOW_SIZE, SHADOW_SIZE)
+        ctx.viewport = (0, 0, *self.shadow_texture.size)
         self.shadow.clear(depth=1.0)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
@@ -102,6 +114,9 @@ class Renderer:
         ctx.disable(moderngl.DEPTH_TEST)
         _matrix(self._sky, "u_inverse_view_proj", np.linalg.inv(view_proj))
         _set(self._sky, "u_viewport", self.size)
+        _set(self._sky, "u_sun_dir", tuple(light_dir))
+        _set(self._sky, "u_exposure", EXPOSURE)
+        _set(self._sky, "u_ambient", light.ambient)
         self._empty_sky.render(moderngl.TRIANGLES, vertices=3)
         # Bodies.
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
@@ -110,14 +125,23 @@ class Renderer:
         prog = self._lit(options)
         _uniforms(prog, frame)
         self.shadow_texture.use(2)
-        _set(prog, "u_shadow_map", 2)
-        _set(prog, "u_normal_map", 0)
-        _set(prog, "u_height_map", 1)
-        for gpu, model, maps, material, checker in draws:
-            albedo, specular, shininess = GROUND_LOOK if checker else look(material)
-            _set(prog, "u_albedo", albedo)
-            _set(prog, "u_specular", specular)
-            _set(prog, "u_shininess", shininess)
+        env.radiance.use(3)
+        env.irradiance.use(4)
+        for name, value in (
+            ("u_shadow_map", 2),
+            ("u_normal_map", 0),
+            ("u_height_map", 1),
+            ("u_radiance", 3),
+            ("u_irradiance", 4),
+            ("u_levels", LEVELS),
+            ("u_exposure", EXPOSURE),
+        ):
+            _set(prog, name, value)
+        for gpu, model, maps, appearance, checker in draws:
+            _set(prog, "u_base_colour", appearance.base_colour)
+            _set(prog, "u_metalness", appearance.metalness)
+            _set(prog, "u_roughness", appearance.roughness)
+            _set(prog, "u_surface", surface_code(appearance))
             _set(prog, "u_checker", checker)
             _matrix(prog, "u_model", model)
             normal_matrix = np.linalg.inv(model[:3, :3]).T

@@ -1,0 +1,31 @@
+"""Quality presets: what the renderer spends per frame. `low` is chosen on a software rasteriser
+(llvmpipe), where every sample is CPU time; `high` on a GPU."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Quality:
+    name: str
+    #: Multisample anti-aliasing samples (0: none).
+    msaa: int
+    #: Side of the sun's shadow map, texels.
+    shadow_size: int
+    #: Shadow comparisons per pixel (1, or 4 for a 3 x 3 texel filter).
+    shadow_taps: int
+
+
+PRESETS = {
+    "low": Quality("low", msaa=0, shadow_size=1024, shadow_taps=1),
+    "medium": Quality("medium", msaa=2, shadow_size=2048, shadow_taps=4),
+    "high": Quality("high", msaa=4, shadow_size=2048, shadow_taps=4),
+}
+
+
+def preset(name: str | None, software: bool) -> Quality:
+    """The named preset; None picks `low` on a software rasteriser and `high` elsewhere."""
+    if name is None:
+        return PRESETS["low" if software else "high"]
+    return PRESETS[name]
