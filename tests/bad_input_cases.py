@@ -621,6 +621,11 @@ def flag_cases() -> list[Case]:
         ("bench_plot_is_folder", ["bench", "--tiny", "--plot", "sub"], ("--plot", "sub")),
         ("info_backend_vulkan", ["info", "--backend", "vulkan"], ("--backend", "vulkan")),
         ("materials_extra_argument", ["materials", "extra"], ("extra",)),
+        ("fov_zero", [*RENDER, "--fov", "0"], ("--fov", "0")),
+        ("eye_two_values", [*RENDER, "--eye", "1", "2"], ("--eye",)),
+        ("eye_is_target", [*RENDER, "--eye", "1", "1", "1", "--target", "1", "1", "1"], ("--eye",)),
+        ("quality_ultra", [*RENDER, "--quality", "ultra"], ("--quality", "ultra")),
+        ("demo_size_word", ["demo", "--size", "huge"], ("--size", "huge")),
     ]
     cases = [Case(f"flags-{name}", "flags", argv, files, reject=frag) for name, argv, frag in table]
     cases += [

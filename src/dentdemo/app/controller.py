@@ -16,6 +16,7 @@ from dentdemo.model.scene import BodySpec, Scene
 from dentdemo.model.shapes import Plate
 from dentdemo.render.camera import OrbitCamera
 from dentdemo.render.frame import RenderOptions
+from dentdemo.render.quality import preset
 from dentdemo.render.renderer import Renderer
 
 DROP_HEIGHT = 1.0  # m above the clicked point
@@ -45,11 +46,14 @@ class DemoController:
         size: tuple[int, int],
         *,
         denting: bool = True,
+        quality: str | None = None,
     ) -> None:
         self.gl = gl
         self.materials = materials
         self.sim = Simulation(gl, scene, materials, denting=denting)
-        self.renderer = Renderer(gl, size)
+        #: The render quality preset (None: low on a software rasteriser, high on a GPU).
+        self.quality = preset(quality, gl.software)
+        self.renderer = Renderer(gl, size, self.quality)
         self.camera = OrbitCamera.from_eye(
             scene.camera.eye, scene.camera.target, scene.camera.fov_deg
         )
@@ -175,12 +179,12 @@ class DemoController:
     def resize(self, size: tuple[int, int]) -> None:
         if size != self.renderer.size and min(size) > 0:
             self.renderer.release()
-            self.renderer = Renderer(self.gl, size)
+            self.renderer = Renderer(self.gl, size, self.quality)
 
     def stats_line(self, fps: float) -> str:
         s = self.sim.stats
         return (
-            f"{fps:5.1f} fps | physics {s.physics_ms:5.2f} ms | "
+            f"{fps:5.1f} fps | {self.quality.name} | physics {s.physics_ms:5.2f} ms | "
             f"carve {s.carve_ms_per_hit:5.2f} ms/hit | "
             f"hits {s.hits} | queued {len(self.sim.queue)} | bodies {len(self.sim.bodies)}"
         )

@@ -5,10 +5,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import create_headless
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
+from dentdemo.render.camera import OrbitCamera
 from dentdemo.render.frame import RenderOptions
 
 
@@ -24,11 +27,14 @@ def render_headless(
     every_frame: bool = False,
     load_state: Path | None = None,
     save_state: Path | None = None,
+    quality: str | None = None,
+    view: tuple[tuple[float, float, float], tuple[float, float, float], float] | None = None,
 ) -> None:
     """Simulate `frames` steps and write the last frame (every frame, `out` % frame, with
     `every_frame`). `load_state` resumes a saved run first (the frames continue it);
     `save_state` saves the run after the last frame, before anything the carve budget deferred
-    is flushed, so that a resumed run continues exactly."""
+    is flushed, so that a resumed run continues exactly. `view` (eye, target, field of view in
+    degrees; world metres) replaces the scene's camera."""
     from dentdemo.app.controller import DemoController  # loads ODE
     from dentdemo.app.loop import FrameLoop, ImageBackend
 
@@ -38,8 +44,10 @@ def render_headless(
     scene = load_scene(scene_file, materials)
     gl = create_headless()
     try:
-        app = DemoController(gl, scene, materials, size, denting=denting)
+        app = DemoController(gl, scene, materials, size, denting=denting, quality=quality)
         app.options = options or RenderOptions()
+        if view is not None:
+            app.camera = OrbitCamera.from_eye(np.asarray(view[0]), np.asarray(view[1]), view[2])
         if load_state is not None:
             from dentdemo.app.state import load_state as resume
 

@@ -24,7 +24,11 @@ CLICK_PIXELS = 4  # a press that moves less than this is a click, not a drag
 
 class DemoWindow:
     def __init__(
-        self, scene: Scene, materials: MaterialLibrary, size: tuple[int, int] = (1280, 720)
+        self,
+        scene: Scene,
+        materials: MaterialLibrary,
+        size: tuple[int, int] = (1280, 720),
+        quality: str | None = None,
     ) -> None:
         import glfw
         from imgui_bundle import imgui  # before glfw: pyGLFW must use imgui-bundle's libglfw
@@ -34,7 +38,9 @@ class DemoWindow:
         self.gl: GLContext = create_window(*size, "dentdemo")
         self.window = self.gl.window
         fb = glfw.get_framebuffer_size(self.window)
-        self.app = DemoController(self.gl, scene, materials, (max(fb[0], 16), max(fb[1], 16)))
+        self.app = DemoController(
+            self.gl, scene, materials, (max(fb[0], 16), max(fb[1], 16)), quality=quality
+        )
         self._press: dict[int, tuple[float, float, int]] = {}  # button -> (x, y, modifiers)
         self._last_cursor = (0.0, 0.0)
         self._shots = 0
@@ -168,7 +174,7 @@ class DemoWindow:
             app.sim.denting = denting
         imgui.separator()
         s = app.sim.stats
-        imgui.text(f"fps {fps:.1f}   frame {frame_ms:.2f} ms")
+        imgui.text(f"fps {fps:.1f}   frame {frame_ms:.2f} ms   quality {app.quality.name}")
         imgui.text(f"physics {s.physics_ms:.2f} ms   carve {s.carve_ms_per_hit:.2f} ms/hit")
         imgui.text(f"hits {s.hits}   impacts {s.impacts}   queued {len(app.sim.queue)}")
         imgui.text(f"bodies {len(app.sim.bodies)}   t = {app.sim.world.time:.2f} s")

@@ -98,6 +98,15 @@ def add_backend(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_quality(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--quality",
+        choices=("low", "medium", "high"),
+        default=None,
+        help="render quality preset (default: low on a software rasteriser, high on a GPU)",
+    )
+
+
 def int_in(lo: int, hi: int) -> Callable[[str], int]:
     """An integer lo <= n <= hi (no float silently truncated)."""
 

@@ -7,7 +7,7 @@ import os
 import sys
 from pathlib import Path
 
-from dentdemo.cli.args import add_scene, command, float_in
+from dentdemo.cli.args import add_quality, add_scene, command, float_in, size_wxh
 from dentdemo.errors import GLUnavailableError
 from dentdemo.outputs import check_output_file
 
@@ -35,6 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="SECONDS",
         help="simulated seconds after which to exit (saving --screenshot)",
     )
+    p.add_argument("--size", type=size_wxh, default="1280x720", metavar="WxH", help="window pixels")
+    add_quality(p)
     p.set_defaults(handler=run)
 
 
@@ -56,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from dentdemo.app.window import DemoWindow
 
     try:
-        window = DemoWindow(scene, materials)
+        window = DemoWindow(scene, materials, args.size, args.quality)
     except GLUnavailableError as exc:
         return _headless_instead(args, path, exit_after, str(exc).removeprefix("dentdemo: "))
     return window.run(shot, exit_after)
@@ -78,6 +80,6 @@ def _headless_instead(
         f"dentdemo: {why}; rendering the same scene headless instead ({frames} frames) to {out}",
         file=sys.stderr,
     )
-    render_headless(path, args.materials, frames, out, (1280, 720))
+    render_headless(path, args.materials, frames, out, args.size, quality=args.quality)
     print(f"wrote {out}")
     return 0

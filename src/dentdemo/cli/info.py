@@ -20,11 +20,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from dentdemo.gl.context import create_headless
+    from dentdemo.render.quality import preset
 
     gl = create_headless(args.backend)
     print(f"GL backend:  {gl.backend}")
     print(f"GL renderer: {gl.renderer}")
     print(f"GL version:  {gl.version}")
+    quality = preset(None, gl.software)
+    why = "software rasteriser" if gl.software else "GPU"
+    print(f"Quality:     {quality.name} by default ({why}); --quality low|medium|high")
     gl.release()
     from dentdemo.physics.ode import ode_configuration
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from dentdemo.cli.args import add_scene, command, int_in, size_wxh
+from dentdemo.cli.args import add_quality, add_scene, command, float_in, int_in, size_wxh
 from dentdemo.errors import DentdemoError
 from dentdemo.outputs import check_output_dir, check_output_file
 
@@ -43,6 +43,28 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="DIR",
         help="resume a state saved from the same scene; --frames then continues it",
     )
+    add_quality(p)
+    p.add_argument(
+        "--eye",
+        type=float_in(-1000, 1000),
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="camera position, world metres (default: the scene's camera)",
+    )
+    p.add_argument(
+        "--target",
+        type=float_in(-1000, 1000),
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="point the camera looks at, world metres",
+    )
+    p.add_argument(
+        "--fov",
+        type=float_in(1.0, 170.0),
+        default=None,
+        metavar="DEG",
+        help="vertical field of view, degrees (default: the scene's)",
+    )
     p.set_defaults(handler=run)
 
 
@@ -55,6 +77,22 @@ def frame_pattern(out: Path) -> bool:
     except (TypeError, ValueError):
         raise DentdemoError(f"--out: '{out.name}' has a bad % pattern (use %04d)") from None
     return True
+
+
+def camera_view(args: argparse.Namespace):  # noqa: ANN201
+    """(eye, target, fov) from --eye/--target/--fov, the scene's values filling in; None when
+    none is given."""
+    if args.eye is None and args.target is None and args.fov is None:
+        return None
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    cam = load_scene(Path(args.scene), load_materials(args.materials)).camera
+    eye = tuple(args.eye) if args.eye is not None else cam.eye
+    target = tuple(args.target) if args.target is not None else cam.target
+    if max(abs(a - b) for a, b in zip(eye, target, strict=True)) < 1e-9:
+        raise DentdemoError(f"--eye/--target: the camera cannot look at itself ({list(eye)})")
+    return eye, target, args.fov if args.fov is not None else cam.fov_deg
 
 
 def run(args: argparse.Namespace) -> int:
@@ -70,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
     save_state = Path(args.save_state) if args.save_state else None
     if save_state is not None:
         check_output_dir("--save-state", save_state)
+    view = camera_view(args)
     render_headless(
         Path(args.scene),
         args.materials,
@@ -82,6 +121,8 @@ def run(args: argparse.Namespace) -> int:
         every_frame=every,
         load_state=Path(args.load_state) if args.load_state else None,
         save_state=save_state,
+        quality=args.quality,
+        view=view,
     )
     print(f"wrote {args.out}")
     return 0
