@@ -29,14 +29,17 @@ def render_headless(
     save_state: Path | None = None,
     quality: str | None = None,
     view: tuple[tuple[float, float, float], tuple[float, float, float], float] | None = None,
+    video: Path | None = None,
+    progress: bool = False,
 ) -> None:
     """Simulate `frames` steps and write the last frame (every frame, `out` % frame, with
     `every_frame`). `load_state` resumes a saved run first (the frames continue it);
     `save_state` saves the run after the last frame, before anything the carve budget deferred
     is flushed, so that a resumed run continues exactly. `view` (eye, target, field of view in
-    degrees; world metres) replaces the scene's camera."""
+    degrees; world metres) replaces the scene's camera. `video` (.mp4 or .gif) gets every frame
+    as well, at the scene's frame rate."""
     from dentdemo.app.controller import DemoController  # loads ODE
-    from dentdemo.app.loop import FrameLoop, ImageBackend
+    from dentdemo.app.loop import FrameLoop, ImageBackend, VideoBackend
 
     if frames < 1:
         raise DentdemoError(f"--frames: must be at least 1, got {frames}")
@@ -52,7 +55,17 @@ def render_headless(
             from dentdemo.app.state import load_state as resume
 
             resume(app.sim, load_state)
-        FrameLoop(app, ImageBackend(size, out, every_frame), fixed_dt=True).run(frames=frames)
+        images = ImageBackend(size, out, every_frame)
+        clip = VideoBackend(size, video, 1.0 / scene.physics.dt) if video is not None else None
+        backend = images if clip is None else _Both(images, clip)
+        try:
+            FrameLoop(app, backend, fixed_dt=True).run(frames=frames, progress=progress)
+        except BaseException:
+            if clip is not None:
+                clip.discard()
+            raise
+        if clip is not None:
+            clip.finish()
         if save_state is not None:
             from dentdemo.app.state import save_state as save
 
@@ -63,3 +76,20 @@ def render_headless(
         app.close()
     finally:
         gl.release()
+
+
+class _Both:
+    """Frames to the images and the video at once."""
+
+    def __init__(self, images, clip) -> None:  # noqa: ANN001
+        self.images, self.clip = images, clip
+
+    def open(self) -> bool:
+        return True
+
+    def size(self) -> tuple[int, int]:
+        return self.images.size()
+
+    def present(self, app, output, last: bool) -> None:  # noqa: ANN001
+        self.images.present(app, output, last)
+        self.clip.present(app, output, last)

@@ -11,10 +11,12 @@ from pathlib import Path
 from typing import Protocol
 
 import moderngl
+import numpy as np
 
 from dentdemo import interrupt
 from dentdemo.app.controller import DemoController
 from dentdemo.outputs import write_png
+from dentdemo.progress import progress_bar
 
 
 class Backend(Protocol):
@@ -83,9 +85,13 @@ class FrameLoop:
             total_ms=(rendered - start) * 1e3,
         )
 
-    def run(self, frames: int | None = None, until_time: float | None = None) -> int:
+    def run(
+        self, frames: int | None = None, until_time: float | None = None, progress: bool = False
+    ) -> int:
         """Frames until the backend closes, `frames` frames were made, or the simulation reached
-        `until_time` seconds (the frame that reaches it is the last). Returns how many."""
+        `until_time` seconds (the frame that reaches it is the last). Returns how many. With
+        `progress` and a terminal on stderr, a progress bar counts the frames."""
+        bar = progress_bar(frames, "frames") if progress else None
         made = 0
         while self.backend.open():
             if frames is not None and made >= frames:
@@ -96,13 +102,83 @@ class FrameLoop:
             last = (frames is not None and made == frames - 1) or bool(time_left)
             self.frame(last=last)
             made += 1
+            if bar is not None:
+                bar.update(1)
             if last:
                 break
+        if bar is not None:
+            bar.close()
         return made
 
 
 def _nothing() -> None:
     return None
+
+
+class VideoBackend:
+    """Every frame into one video: MP4 (H.264 through imageio-ffmpeg's ffmpeg) or an animated GIF
+    (Pillow), at the simulation's frame rate. The file is written beside its final name and
+    renamed when the loop ends (`finish`); `discard` removes it instead."""
+
+    def __init__(self, size: tuple[int, int], out: Path, fps: float) -> None:
+        self._size = size
+        self.out = out
+        self.fps = fps
+        self._tmp = out.with_name(f".{out.name}.partial{out.suffix}")
+        self._gif: list = []
+        self._writer = None
+        if out.suffix.lower() != ".gif":
+            import imageio_ffmpeg
+
+            self._writer = imageio_ffmpeg.write_frames(
+                str(self._tmp),
+                size,
+                fps=fps,
+                codec="libx264",
+                quality=8,
+                macro_block_size=1,
+                output_params=["-pix_fmt", "yuv420p"],
+                ffmpeg_log_level="error",
+            )
+            self._writer.send(None)
+
+    def open(self) -> bool:
+        return True
+
+    def size(self) -> tuple[int, int]:
+        return self._size
+
+    def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
+        pixels = app.renderer.read_rgb()
+        if self._writer is not None:
+            self._writer.send(np.ascontiguousarray(pixels).tobytes())
+        else:
+            from PIL import Image
+
+            self._gif.append(Image.fromarray(pixels))
+
+    def finish(self) -> None:
+        """Close the file and give it its name."""
+        if self._writer is not None:
+            self._writer.close()
+        elif self._gif:
+            self._gif[0].save(
+                self._tmp,
+                format="GIF",
+                save_all=True,
+                append_images=self._gif[1:],
+                duration=max(round(1000.0 / self.fps), 20),
+                loop=0,
+            )
+        self._tmp.replace(self.out)
+
+    def discard(self) -> None:
+        if self._writer is not None:
+            try:
+                self._writer.close()
+            except Exception:  # noqa: BLE001 - ffmpeg already gone; the file goes anyway
+                pass
+        self._tmp.unlink(missing_ok=True)
 
 
 class ImageBackend:

@@ -7,6 +7,7 @@ import os
 import platform
 import statistics
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -16,6 +17,7 @@ from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
 from dentdemo.gl.context import GLContext, create_headless
+from dentdemo.progress import progress_bar
 
 #: The press every per-hit measurement uses: a 5 cm ball 1 cm into a 1 m plate, the ball 2 mm.
 PRESS = {"tool_radius_m": 0.05, "plate_side_m": 1.0, "depth_m": 0.01, "tool_depth_m": 0.002}
@@ -100,7 +102,11 @@ def _release(setup) -> None:
 
 
 def per_hit(
-    gl: GLContext, sizes: list[int], cpu_sizes: list[int], reps: int
+    gl: GLContext,
+    sizes: list[int],
+    cpu_sizes: list[int],
+    reps: int,
+    tick: Callable[[], object] = lambda: None,
 ) -> tuple[list, list, dict]:
     """Median ms per press (both bodies) for both paths, and the per-pass split."""
     carver = Carver(gl)
@@ -144,11 +150,18 @@ def per_hit(
             _release(cpu_setup)
         rows.append(row)
         _release(gpu_setup)
+        tick()
     carver.release()
     return rows, passes, agreement
 
 
-def frame_times(gl: GLContext, body_counts: list[int], frames: int, size=(1280, 720)) -> list[dict]:
+def frame_times(
+    gl: GLContext,
+    body_counts: list[int],
+    frames: int,
+    size=(1280, 720),
+    tick: Callable[[], object] = lambda: None,
+) -> list[dict]:
     """Sandbox frames through the frame loop (physics step, carves, render at `size`) with N
     bodies dropped on plates; each phase ends with glFinish so that its time is its own."""
     from dentdemo.app.controller import DemoController
@@ -191,6 +204,7 @@ def frame_times(gl: GLContext, body_counts: list[int], frames: int, size=(1280, 
             }
         )
         app.close()
+        tick()
     return out
 
 
@@ -212,9 +226,14 @@ def run_bench(mode: str) -> dict:
     gl = create_headless()
     try:
         start = time.perf_counter()
-        rows, passes, agreement = per_hit(gl, cfg["sizes"], cfg["cpu_sizes"], cfg["reps"])
+        bar = progress_bar(len(cfg["sizes"]) + 1 + len(cfg["bodies"]), "stages")
+        tick = bar.update if bar is not None else (lambda: None)
+        rows, passes, agreement = per_hit(gl, cfg["sizes"], cfg["cpu_sizes"], cfg["reps"], tick)
         same = same_dent(gl, cfg["same_dent"], cfg["reps"])
-        frames = frame_times(gl, cfg["bodies"], cfg["frames"])
+        tick()
+        frames = frame_times(gl, cfg["bodies"], cfg["frames"], tick=tick)
+        if bar is not None:
+            bar.close()
         result = {
             "schema": 1,
             "dentdemo": __version__,

@@ -45,6 +45,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_quality(p)
     p.add_argument(
+        "--video",
+        metavar="FILE",
+        help="also write every frame to a video: .mp4 (H.264) or .gif, at the scene's frame rate",
+    )
+    p.add_argument(
         "--eye",
         type=float_in(-1000, 1000),
         nargs=3,
@@ -105,6 +110,13 @@ def run(args: argparse.Namespace) -> int:
     maps_dir = Path(args.maps_dir) if args.maps_dir else None
     if maps_dir is not None:
         check_output_dir("--maps-dir", maps_dir)
+    video = Path(args.video) if args.video else None
+    if video is not None:
+        check_output_file("--video", video)
+        if video.suffix.lower() not in (".mp4", ".gif"):
+            raise DentdemoError(f"--video: '{video}' must end in .mp4 or .gif")
+        if video.suffix.lower() == ".mp4" and (args.size[0] % 2 or args.size[1] % 2):
+            raise DentdemoError(f"--video: H.264 needs an even --size, got {args.size}")
     save_state = Path(args.save_state) if args.save_state else None
     if save_state is not None:
         check_output_dir("--save-state", save_state)
@@ -123,6 +135,8 @@ def run(args: argparse.Namespace) -> int:
         save_state=save_state,
         quality=args.quality,
         view=view,
+        video=video,
+        progress=True,
     )
     print(f"wrote {args.out}")
     return 0
