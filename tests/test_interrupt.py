@@ -75,6 +75,8 @@ def test_ctrl_c_stops_render_and_leaves_no_file(tmp_path):
             str(out / "maps"),
             "--save-state",
             str(out / "state"),
+            "--video",
+            str(out / "clip.mp4"),
         ],
         tmp_path,
     )

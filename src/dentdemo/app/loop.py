@@ -15,6 +15,7 @@ import numpy as np
 
 from dentdemo import interrupt
 from dentdemo.app.controller import DemoController
+from dentdemo.errors import DentdemoError
 from dentdemo.outputs import write_png
 from dentdemo.progress import progress_bar
 
@@ -127,6 +128,10 @@ class VideoBackend:
         self._tmp = out.with_name(f".{out.name}.partial{out.suffix}")
         self._gif: list = []
         self._writer = None
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise DentdemoError(f"--video: cannot create '{out.parent}' ({exc.strerror})") from None
         if out.suffix.lower() != ".gif":
             import imageio_ffmpeg
 
@@ -151,7 +156,11 @@ class VideoBackend:
     def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
         pixels = app.renderer.read_rgb()
         if self._writer is not None:
-            self._writer.send(np.ascontiguousarray(pixels).tobytes())
+            try:
+                self._writer.send(np.ascontiguousarray(pixels).tobytes())
+            except OSError as exc:  # ffmpeg went away: say so in one line
+                detail = " ".join(str(exc).split())[:200]
+                raise DentdemoError(f"--video: {self.out}: ffmpeg failed ({detail})") from None
         else:
             from PIL import Image
 
