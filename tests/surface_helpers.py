@@ -9,8 +9,9 @@ import numpy as np
 
 from dentdemo.carve.carver import CarveBody
 from dentdemo.carve.surface import GpuMesh, create_maps
-from dentdemo.mesh.loader import reatlas, vertex_normals
+from dentdemo.mesh.loader import reatlas
 from dentdemo.mesh.mesh import Mesh
+from dentdemo.mesh.normals import smooth_normals
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.model.shapes import Box, Shape, Sphere
 
@@ -117,8 +118,8 @@ def noisy_sphere_without_uvs(radius: float = 0.2) -> Mesh:
     bump = 1.0 + 0.04 * np.sin(3 * v[:, 0]) * np.sin(2 * v[:, 1] + 1) + 0.03 * np.cos(4 * v[:, 2])
     positions = v * (radius * bump)[:, None]
     faces = np.asarray(ico.faces, dtype=np.uint32)
-    normals = vertex_normals(positions, faces)
-    positions, normals, uvs, faces = reatlas(positions, faces, normals)
+    normals, faces, source = smooth_normals(positions, faces)
+    positions, normals, uvs, faces = reatlas(positions[source], faces, normals)
     return Mesh("noisy", positions, normals, uvs, faces)
 
 

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from dentdemo.errors import DentdemoError
 from dentdemo.mesh.mesh import Mesh
+from dentdemo.mesh.normals import smooth_normals
 
 #: Resolution of the raster used to find overlapping UV triangles.
 OVERLAP_GRID = 256
@@ -108,18 +109,6 @@ def reatlas(
     return positions[vmapping], normals[vmapping], uvs, new_indices
 
 
-def vertex_normals(positions: NDArray, indices: NDArray) -> NDArray[np.float64]:
-    """Area-weighted vertex normals of a triangle mesh."""
-    p = np.asarray(positions, dtype=np.float64)
-    tri = p[np.asarray(indices)]
-    face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    normals = np.zeros_like(p)
-    for corner in range(3):
-        np.add.at(normals, np.asarray(indices)[:, corner], face)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.where(length > 1e-30, normals / np.maximum(length, 1e-30), [[0.0, 1.0, 0.0]])
-
-
 def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
     """Load a triangle mesh file; re-atlas it when its UVs are missing, tiled or overlapping.
     A file is read (and re-atlased, and warned about) once per content and scale: physics and
@@ -183,8 +172,12 @@ def mesh_from_triangles(
         raise DentdemoError(
             f"{name}: every triangle has no area at scale {scale:g} (too small to draw or carve)"
         )
-    normals = vertex_normals(positions, indices)
-    coords = None if uvs is None else np.asarray(uvs, dtype=np.float64)
+    # Normals smooth across UV seams and unwelded triangles, hard above the crease angle.
+    normals, indices, source = smooth_normals(positions, indices)
+    coords = None
+    if uvs is not None and len(uvs) == len(positions):  # one uv per vertex, else none usable
+        coords = np.asarray(uvs, dtype=np.float64)[source]
+    positions = positions[source]
     report = check_uvs(coords, indices)
     if not report.ok:
         warnings.warn(
