@@ -637,6 +637,14 @@ def flag_cases() -> list[Case]:
             accept=_wrote("out/01.png"),
         ),
         Case(
+            "flags-demo_screenshot_alone_ends_after_3_s",
+            "flags",
+            ["demo", "--screenshot", "out/shot.png", "--size", "64x36"],
+            files,
+            env={"DISPLAY": None, "WAYLAND_DISPLAY": None},
+            accept=_wrote("out/shot.png"),
+        ),
+        Case(
             "flags-indent_tool_map_size_accepted",
             "flags",
             [*INDENT, "--tool-map-size", "32"],

@@ -4,7 +4,7 @@
 // the body's rebuilt tangent-space normal map, a PCF-filtered shadow, optional parallax occlusion
 // mapping, procedural surface detail, ACES tone mapping and exact sRGB output. Debug views
 // replace the shading. Compile-time variants: PARALLAX 0/1; VIEW 0 shaded / 1 height / 2 normal;
-// SHADOW_TAPS 1 or 4 (the quality preset).
+// SHADOW_TAPS 1 or 4 and SURFACE_DETAIL 0/1 (the quality preset).
 #ifndef PARALLAX
 #define PARALLAX 0
 #endif
@@ -13,6 +13,9 @@
 #endif
 #ifndef SHADOW_TAPS
 #define SHADOW_TAPS 4
+#endif
+#ifndef SURFACE_DETAIL
+#define SURFACE_DETAIL 1
 #endif
 #include "frame.glsl"
 #include "../include/common.glsl"
@@ -137,7 +140,9 @@ void main() {
 #endif
     vec3 base = u_base_colour;
     float roughness = u_roughness;
+#if SURFACE_DETAIL
     surface_detail(u_surface, uv, v_world, base, roughness);
+#endif
     if (u_checker) {
         vec2 cell = floor(v_world.xz / 0.25);
         base *= mod(cell.x + cell.y, 2.0) < 0.5 ? 1.0 : 0.75;

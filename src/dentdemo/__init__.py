@@ -11,11 +11,21 @@ Use it in your own moderngl program (examples/carve_in_your_context.py):
     carver.press(target, tool, dentdemo.Contact(point, direction), depth=0.002)
     # bind target.normal (and target.height) in your shaders; the mesh is never changed
 
-Types: DentableSurface (a mesh with its height and normal maps), Carver (presses), Contact
-(where and which way), Mesh (triangles with a unique atlas); mesh_from_triangles, load_mesh,
-shape_mesh and the shapes Sphere, Box, Capsule, Cylinder, Plate. Every call leaves the host's
-GL state as it was, and nothing is read back from the GPU unless you ask (heights()).
-The command line is `dentdemo --help`.
+The API (each name has its own help, e.g. help(dentdemo.Carver)):
+
+    DentableSurface(ctx, mesh, map_size=1024, max_dent_depth=0.01, model=None)
+        a mesh with its maps: .height (R32F metres, < 0 in dents), .normal (RGBA8 tangent
+        space), .model (4x4 world from local), .heights() (read back), .release()
+    Carver(ctx).press(target, tool, contact, depth, tool_depth=0.0) -> bool
+        dents both surfaces where the tool moves into the target; .release()
+    Contact(point, direction)       world metres; the way the tool moves
+    mesh_from_triangles(positions, indices, uvs=None)  -> Mesh (re-atlased when needed)
+    load_mesh(path, scale=1.0)      -> Mesh, from anything trimesh reads
+    shape_mesh(shape)               -> Mesh of Sphere(r), Box((x, y, z)), Capsule(r, length),
+                                       Cylinder(r, length) or Plate(side) (all in metres)
+
+Every call leaves the host's GL state as it was, and nothing is read back from the GPU unless
+you ask (heights()). The command line is `dentdemo --help`.
 """
 
 from __future__ import annotations
@@ -41,9 +51,8 @@ _EXPORTS = {
     "Cylinder": "dentdemo.model.shapes",
     "Plate": "dentdemo.model.shapes",
 }
-#: What `help(dentdemo)` documents: the host's types and functions (the shapes and Mesh are
-#: plain data, importable all the same).
-__all__ = ["Carver", "Contact", "DentableSurface", "load_mesh", "mesh_from_triangles", "shape_mesh"]
+#: The host's names (help(dentdemo) shows their summary above; each has its own help).
+API = ("Carver", "Contact", "DentableSurface", "load_mesh", "mesh_from_triangles", "shape_mesh")
 
 
 def __getattr__(name: str) -> Any:

@@ -17,7 +17,7 @@ class Tessellation:
     """How finely curved primitives are cut: cube-sphere cells per face edge, segments around a
     capsule or cylinder, rings along a capsule's caps."""
 
-    sphere: int = 16
+    sphere: int = 12
     around: int = 64
     rings: int = 16
 

@@ -15,11 +15,17 @@ class Quality:
     shadow_size: int
     #: Shadow comparisons per pixel (1, or 4 for a 3 x 3 texel filter).
     shadow_taps: int
+    #: Shaded pixels per output pixel, per axis (the frame is stretched bilinearly to the output).
+    render_scale: float = 1.0
+    #: Procedural surface detail (brushed, cast, grain) in the shading.
+    surface_detail: bool = True
 
 
 PRESETS = {
-    "low": Quality("low", msaa=0, shadow_size=1024, shadow_taps=1),
-    "medium": Quality("medium", msaa=2, shadow_size=2048, shadow_taps=4),
+    "low": Quality(
+        "low", msaa=0, shadow_size=1024, shadow_taps=1, render_scale=0.5, surface_detail=False
+    ),
+    "medium": Quality("medium", msaa=2, shadow_size=2048, shadow_taps=4, render_scale=0.75),
     "high": Quality("high", msaa=4, shadow_size=2048, shadow_taps=4),
 }
 

@@ -34,11 +34,19 @@ class Renderer:
         self.quality = quality or preset(None, gl.software)
         samples = min(self.quality.msaa, ctx.max_samples)
         shadow_size = self.quality.shadow_size
-        self._msaa_colour = ctx.renderbuffer(size, 4, samples=samples)
-        self._msaa_depth = ctx.depth_renderbuffer(size, samples=samples)
+        scale = self.quality.render_scale
+        #: Pixels shaded: the output size times the preset's render scale.
+        self.shade_size = (max(16, round(size[0] * scale)), max(16, round(size[1] * scale)))
+        self._msaa_colour = ctx.renderbuffer(self.shade_size, 4, samples=samples)
+        self._msaa_depth = ctx.depth_renderbuffer(self.shade_size, samples=samples)
         self.msaa = ctx.framebuffer([self._msaa_colour], self._msaa_depth)
         self.output_texture = ctx.texture(size, 4)
         self.output = ctx.framebuffer([self.output_texture])
+        self._resolved = ctx.texture(self.shade_size, 4)
+        self._resolved.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self._resolved_fbo = ctx.framebuffer([self._resolved])
+        self._upscale = program(gl.cache, ctx, "util/fullscreen.vert", "render/upscale.frag")
+        self._empty_upscale = ctx.vertex_array(self._upscale, [])
         self.shadow_texture = ctx.depth_texture((shadow_size, shadow_size))
         self.shadow_texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.shadow_texture.compare_func = "<="  # hardware comparison: bilinear PCF per tap
@@ -63,6 +71,7 @@ class Renderer:
             "PARALLAX": int(options.parallax),
             "VIEW": int(options.view),
             "SHADOW_TAPS": self.quality.shadow_taps,
+            "SURFACE_DETAIL": int(self.quality.surface_detail),
         }
         return program(
             self.gl.cache, self.gl.ctx, "render/lit.vert", "render/lit.frag", defines=defines
@@ -104,19 +113,23 @@ class Renderer:
         ctx.depth_func = "<"
         if options.shadows:
             _uniforms(self._depth, frame)
-            for gpu, model, *_ in draws:
+            for gpu, model, _, _, ground in draws:
+                if ground:
+                    continue  # the ground only receives shadows: nothing lies under it
                 _matrix(self._depth, "u_model", model)
                 gpu.vao(self._depth).render(moderngl.TRIANGLES)
         # Sky.
         self.msaa.use()
-        ctx.viewport = (0, 0, *self.size)
+        ctx.viewport = (0, 0, *self.shade_size)
         self.msaa.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
         ctx.disable(moderngl.DEPTH_TEST)
         _matrix(self._sky, "u_inverse_view_proj", np.linalg.inv(view_proj))
-        _set(self._sky, "u_viewport", self.size)
-        _set(self._sky, "u_sun_dir", tuple(light_dir))
+        _set(self._sky, "u_viewport", self.shade_size)
         _set(self._sky, "u_exposure", EXPOSURE)
         _set(self._sky, "u_ambient", light.ambient)
+        _set(self._sky, "u_levels", LEVELS)
+        _set(self._sky, "u_radiance", 3)
+        env.radiance.use(3)
         self._empty_sky.render(moderngl.TRIANGLES, vertices=3)
         # Bodies.
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
@@ -165,9 +178,20 @@ class Renderer:
         if options.contacts and len(description.lines):
             self._draw_lines(description.lines, frame)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        if self.shade_size == self.size:
+            ctx.copy_framebuffer(self.output, self.msaa)  # the MSAA resolve
+        else:
+            ctx.copy_framebuffer(self._resolved_fbo, self.msaa)
+            self.output.use()
+            ctx.viewport = (0, 0, *self.size)
+            self._resolved.use(0)
+            _set(self._upscale, "u_frame", 0)
+            _set(self._upscale, "u_viewport", self.size)
+            self._empty_upscale.render(moderngl.TRIANGLES, vertices=3)
+        self.output.use()
+        ctx.viewport = (0, 0, *self.size)
         if options.address_map and description.inset is not None:
             self._draw_inset(description.inset)
-        ctx.copy_framebuffer(self.output, self.msaa)
         return self.output
 
     def _light_matrix(self, centre: np.ndarray, direction: np.ndarray) -> np.ndarray:
@@ -204,6 +228,9 @@ class Renderer:
             self._line_vbo,
             self._empty_sky,
             self._empty_rect,
+            self._empty_upscale,
+            self._resolved_fbo,
+            self._resolved,
             self.msaa,
             self.output,
             self.shadow,
