@@ -36,7 +36,12 @@ def texture_space_passes(gl: GLContext) -> dict[str, Pass]:
             ("normals", _NORMALS, ("u_height", "u_mask")),
         ):
             prog = program(
-                gl.cache, gl.ctx, "carve/texel.vert", f"carve/{name}.frag", geometry, defines
+                gl.cache,
+                gl.ctx,
+                "carve/texel.vert",
+                f"carve/{name}.frag",
+                geometry,
+                defines=defines,
             )
             passes[f"{name}{gutter}"] = Pass(name, prog, state, samplers)
     gl.cache[key] = passes

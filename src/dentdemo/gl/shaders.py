@@ -116,6 +116,7 @@ class ShaderLibrary:
         vertex: str,
         fragment: str | None = None,
         geometry: str | None = None,
+        *,
         defines: dict[str, object] | None = None,
     ) -> moderngl.Program:
         """Compile and link a program from shader files; errors name file and line."""
@@ -164,17 +165,15 @@ def program(
     gl_cache: dict,
     ctx: moderngl.Context,
     vertex: str,
-    fragment: str | None = None,
-    geometry: str | None = None,
+    *stages: str | None,
     defines: dict[str, object] | None = None,
 ) -> moderngl.Program:
-    """A cached program per context and defines: `program(gl.cache, gl.ctx, "a.vert", "a.frag")`."""
-    names = (vertex, fragment, geometry)
-    key = (
-        "program:" + "|".join(n or "" for n in names) + "|" + repr(sorted((defines or {}).items()))
-    )
+    """A cached program per context and defines: `program(gl.cache, gl.ctx, "a.vert", "a.frag")`
+    (then the geometry shader, if any)."""
+    names = "|".join([vertex, *(n or "" for n in stages)])
+    key = f"program:{names}|{sorted((defines or {}).items())!r}"
     if key not in gl_cache:
-        gl_cache[key] = ShaderLibrary().program(ctx, *names, defines=defines)
+        gl_cache[key] = ShaderLibrary().program(ctx, vertex, *stages, defines=defines)
     return gl_cache[key]
 
 
