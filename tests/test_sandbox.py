@@ -216,3 +216,27 @@ def test_demo_without_display_renders_headless(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "no display" in result.stderr and "headless" in result.stderr
     assert Image.open(tmp_path / "d.png").size == (1280, 720)
+
+
+def test_close_up_frames_the_last_hit(gl):
+    """Key F / panel button: the camera 0.3 m from the last hit, 40 degrees above its contact
+    plane; the panel names the deeper dent in millimetres."""
+    lib = load_materials()
+    app = DemoController(gl, load_scene(BALL_DROP, lib), lib, (160, 90))
+    try:
+        assert not app.close_up() and app.last_dent_text() == "no dent yet"
+        while app.sim.last_hit is None:
+            app.sim.step()
+        hit = app.sim.last_hit
+        assert app.close_up()
+        offset = app.camera.eye - hit.point
+        np.testing.assert_allclose(app.camera.target, hit.point, atol=1e-12)
+        assert np.linalg.norm(offset) == pytest.approx(0.3, rel=1e-9)
+        up = hit.normal if hit.normal[1] >= 0 else -hit.normal
+        elevation = np.degrees(np.arcsin(offset @ up / np.linalg.norm(offset)))
+        assert elevation == pytest.approx(40.0, abs=1e-6)
+        body, depth = hit.deepest()
+        assert app.last_dent_text() == f"last dent {depth * 1e3:.2f} mm deep in {body}"
+        assert depth == max(hit.depth_target, hit.depth_tool) > 0
+    finally:
+        app.close()

@@ -20,6 +20,9 @@ from dentdemo.render.quality import preset
 from dentdemo.render.renderer import Renderer
 
 DROP_HEIGHT = 1.0  # m above the clicked point
+#: The close-up camera: this far from the last hit, this far above its surface.
+CLOSE_UP_DISTANCE = 0.3  # m
+CLOSE_UP_ELEVATION_DEG = 40.0
 #: Where the demo's save-state key and button write, and load-state reads (a folder).
 STATE_DIR = Path("dentdemo_state")
 
@@ -151,6 +154,36 @@ class DemoController:
         )
         self.sim.add_body(spec)
         return body_id
+
+    def close_up(self) -> bool:
+        """Frame the last hit (key F, panel "close-up"): the camera 0.3 m from it, 40 degrees
+        above the contact plane on its upper side, keeping the current heading. False before
+        any hit."""
+        hit = self.sim.last_hit
+        if hit is None:
+            return False
+        n = hit.normal / max(float(np.linalg.norm(hit.normal)), 1e-12)
+        if n[1] < 0:  # both bodies are dented: look from the open side, the upper one
+            n = -n
+        # Keep the current heading, projected into the dented surface's plane.
+        heading = self.camera.eye - self.camera.target
+        heading -= n * float(heading @ n)
+        if np.linalg.norm(heading) < 1e-9:
+            helper = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+            heading = helper - n * float(helper @ n)
+        heading /= np.linalg.norm(heading)
+        e = math.radians(CLOSE_UP_ELEVATION_DEG)
+        eye = hit.point + CLOSE_UP_DISTANCE * (math.cos(e) * heading + math.sin(e) * n)
+        self.camera = OrbitCamera.from_eye(eye, hit.point, self.camera.fov_deg)
+        return True
+
+    def last_dent_text(self) -> str:
+        """The last hit's deeper dent, for the panel: depth in millimetres and the body."""
+        hit = self.sim.last_hit
+        if hit is None:
+            return "no dent yet"
+        body, depth = hit.deepest()
+        return f"last dent {depth * 1e3:.2f} mm deep in {body}"
 
     # -- views ---------------------------------------------------------------------------------
     def set_view(self, view: int) -> None:

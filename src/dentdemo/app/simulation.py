@@ -57,6 +57,25 @@ class CarveRequest:
     model_b: NDArray[np.float64]
 
 
+@dataclass(frozen=True)
+class Hit:
+    """The most recent carve: where (world m), the surface normal there (unit, out of the
+    target), which bodies, and the dent depths the material model gave (m)."""
+
+    point: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    target: str
+    tool: str
+    depth_target: float
+    depth_tool: float
+
+    def deepest(self) -> tuple[str, float]:
+        """The body with the deeper dent and that depth, metres."""
+        if self.depth_target >= self.depth_tool:
+            return self.target, self.depth_target
+        return self.tool, self.depth_tool
+
+
 @dataclass
 class SimStats:
     frames: int = 0
@@ -105,6 +124,8 @@ class Simulation:
         self.last_impacts: list[Impact] = []
         #: Where the most recent carves were, world metres (the contact debug view).
         self.carved_points: deque[NDArray[np.float64]] = deque(maxlen=CARVED_POINTS_KEPT)
+        #: The most recent carve (the close-up camera frames it), None before the first.
+        self.last_hit: Hit | None = None
         self.ball_count = 0
         self._time_debt = 0.0
         self.bodies: dict[str, SimBody] = {}
@@ -258,6 +279,14 @@ class Simulation:
         contact = ContactFrame(point, -impact.normal)
         self.carver.carve(target, tool, contact, request.depth_a, request.depth_b)
         self.carved_points.append(point)
+        self.last_hit = Hit(
+            np.asarray(point, dtype=np.float64),
+            np.asarray(impact.normal, dtype=np.float64),
+            impact.body_a,
+            impact.body_b,
+            request.depth_a,
+            request.depth_b,
+        )
 
     # -- what a frame shows -------------------------------------------------------------------
     def describe(self, camera: OrbitCamera, options: RenderOptions) -> FrameDescription:
@@ -301,6 +330,7 @@ class Simulation:
         self.bodies.clear()
         self.queue.clear()
         self.carved_points.clear()
+        self.last_hit = None
         self.stats = SimStats()
         self.ball_count = 0
         self.world = build_world(self.scene)

@@ -3,7 +3,8 @@
 Mouse: left drag orbits, a left click drops a ball above the clicked point, right drag throws a
 ball along the view ray (longer drags throw harder), middle drag or shift+left drag pans, the
 wheel zooms. Keys: Space pause, N single step, R reset, P screenshot, 1/2/3 shaded/height/normal
-view, W wireframe, C contacts, A address map, X parallax, Esc quit.
+view, W wireframe, C contacts, A address map, X parallax, F close-up on the last dent, F5/F9 save
+and load the state, Esc quit.
 """
 
 from __future__ import annotations
@@ -109,6 +110,7 @@ class DemoWindow:
             glfw.KEY_N: self.app.single_step,
             glfw.KEY_R: self.app.reset,
             glfw.KEY_P: self._screenshot_key,
+            glfw.KEY_F: self.app.close_up,
             glfw.KEY_F5: self.app.save_state,
             glfw.KEY_F9: self.app.load_state,
             glfw.KEY_1: lambda: self.app.set_view(0),
@@ -132,13 +134,21 @@ class DemoWindow:
         imgui = self.imgui
         app, p = self.app, self.app.panel
         imgui.set_next_window_pos((10, 10), imgui.Cond_.first_use_ever)
-        imgui.set_next_window_size((300, 0), imgui.Cond_.first_use_ever)
+        # Wide enough for every label beside its control, units included.
+        imgui.set_next_window_size((440, 0), imgui.Cond_.first_use_ever)
         imgui.begin("dentdemo")
+        imgui.push_item_width(200)  # controls on the left half, labels readable on the right
         names = app.materials.names()
         _, index = imgui.combo("ball material", names.index(p.ball_material), names)
         p.ball_material = names[index]
-        _, p.ball_radius = imgui.slider_float("ball radius (m)", p.ball_radius, 0.01, 0.15)
-        _, p.throw_speed = imgui.slider_float("throw speed (m/s)", p.throw_speed, 0.5, 25.0)
+        # Drags, not sliders: no grab handle over the value (drag sideways, or double-click
+        # to type).
+        _, p.ball_radius = imgui.drag_float(
+            "ball radius (m)", p.ball_radius, 0.0005, 0.01, 0.15, "%.3f m"
+        )
+        _, p.throw_speed = imgui.drag_float(
+            "throw speed (m/s)", p.throw_speed, 0.05, 0.5, 25.0, "%.1f m/s"
+        )
         _, index = imgui.combo("new plate material", names.index(p.plate_material), names)
         p.plate_material = names[index]
         if imgui.button("add plate at target"):
@@ -146,7 +156,9 @@ class DemoWindow:
         imgui.same_line()
         if imgui.button("reset"):
             app.reset()
-        changed, scale = imgui.slider_float("time scale", app.sim.time_scale, 0.0, 2.0)
+        changed, scale = imgui.drag_float(
+            "time scale (x real time)", app.sim.time_scale, 0.01, 0.0, 2.0, "%.2f x"
+        )
         if changed:
             app.set_time_scale(scale)
         if imgui.button("resume" if app.paused else "pause"):
@@ -154,6 +166,9 @@ class DemoWindow:
         imgui.same_line()
         if imgui.button("step"):
             app.single_step()
+        if imgui.button("close-up on last dent (F)"):
+            app.close_up()
+        imgui.text(app.last_dent_text())
         if imgui.button("save state (F5)"):
             app.save_state()
         imgui.same_line()
@@ -178,6 +193,7 @@ class DemoWindow:
         imgui.text(f"physics {s.physics_ms:.2f} ms   carve {s.carve_ms_per_hit:.2f} ms/hit")
         imgui.text(f"hits {s.hits}   impacts {s.impacts}   queued {len(app.sim.queue)}")
         imgui.text(f"bodies {len(app.sim.bodies)}   t = {app.sim.world.time:.2f} s")
+        imgui.pop_item_width()
         imgui.end()
 
     # -- loop ----------------------------------------------------------------------------------
