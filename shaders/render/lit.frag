@@ -34,6 +34,8 @@ uniform float u_metalness;        // 0 dielectric .. 1 metal
 uniform float u_roughness;        // perceptual; GGX alpha = roughness^2
 uniform int u_surface;            // procedural detail (surface_detail.glsl)
 uniform bool u_checker;           // the ground's checker pattern
+uniform bool u_textured;          // the mesh brought its own base-colour image (it replaces u_base_colour)
+uniform sampler2D u_base_texture; // that image, sRGB bytes, row 0 at texture v = 0
 uniform float u_exposure;         // scene-referred scale before the tone curve
 uniform vec2 u_uv_per_metre;      // texture-space length of one metre along +u and +v
 uniform float u_max_depth;        // deepest possible dent, metres (parallax search range)
@@ -44,6 +46,7 @@ in vec3 v_normal;
 in vec3 v_tangent;
 in vec3 v_bitangent;
 in vec4 v_light_clip;
+in vec2 v_texture_uv;
 
 out vec4 f_colour;
 
@@ -139,6 +142,7 @@ void main() {
     return;
 #endif
     vec3 base = u_base_colour;
+    if (u_textured) base = srgb_to_linear(texture(u_base_texture, v_texture_uv).rgb);
     float roughness = u_roughness;
 #if SURFACE_DETAIL
     surface_detail(u_surface, uv, v_world, base, roughness);

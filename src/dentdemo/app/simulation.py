@@ -9,6 +9,7 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
+import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
@@ -44,6 +45,8 @@ class SimBody:
     maps: SurfaceMaps
     #: A plate's thickness below its dentable top face: drawn, never carved.
     under: GpuMesh | None = None
+    #: The mesh file's own base-colour image on the GPU, if it brought one.
+    texture: moderngl.Texture | None = None
 
 
 @dataclass(frozen=True)
@@ -148,7 +151,10 @@ class Simulation:
             side = primitives.box((spec.shape.side, t, spec.shape.side))
             side.positions[:, 1] -= t / 2 + 2e-4  # just below the top face
             under = GpuMesh(self.gl, side)
-        body = SimBody(spec, mesh, gpu, maps, under)
+        texture = None
+        if mesh.base_colour_image is not None:
+            texture = _upload_image(self.gl, mesh.base_colour_image)
+        body = SimBody(spec, mesh, gpu, maps, under, texture)
         self.bodies[spec.id] = body
         return body
 
@@ -300,7 +306,7 @@ class Simulation:
                 continue
             model = self.model(body_id)
             look = body.spec.material.appearance
-            items.append(DrawItem(body.gpu_mesh, model, look, body.maps))
+            items.append(DrawItem(body.gpu_mesh, model, look, body.maps, body.texture))
             if body.under is not None:
                 items.append(DrawItem(body.under, model, look))
         lines = np.zeros((0, 6), np.float32)
@@ -366,3 +372,16 @@ def _release_body(body: SimBody) -> None:
     body.maps.release()
     if body.under is not None:
         body.under.release()
+    if body.texture is not None:
+        body.texture.release()
+
+
+def _upload_image(gl: GLContext, image: NDArray[np.uint8]) -> moderngl.Texture:
+    """An sRGB RGBA8 image (rows top-down) as a repeating, mipmapped texture whose row 0 is the
+    image's bottom row (texture v = 0, as OBJ and glTF coordinates count it after the flip)."""
+    rgba = np.ascontiguousarray(image[::-1], dtype=np.uint8)
+    texture = gl.ctx.texture((rgba.shape[1], rgba.shape[0]), 4, rgba.tobytes())
+    texture.build_mipmaps()
+    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    texture.repeat_x = texture.repeat_y = True
+    return texture

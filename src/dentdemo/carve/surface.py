@@ -45,7 +45,10 @@ class GpuMesh:
     def __init__(self, gl: GLContext, mesh: Mesh) -> None:
         ctx = gl.ctx
         self.mesh = mesh
-        data = np.hstack([mesh.positions, mesh.normals, mesh.uvs, mesh.tangents]).astype("f4")
+        texture_uvs = mesh.uvs if mesh.texture_uvs is None else mesh.texture_uvs
+        data = np.hstack(
+            [mesh.positions, mesh.normals, mesh.uvs, mesh.tangents, texture_uvs]
+        ).astype("f4")
         self.vbo = ctx.buffer(data.tobytes())
         self.ibo = ctx.buffer(mesh.indices.astype("u4").tobytes())
         self._vaos: dict[tuple[int, str], moderngl.VertexArray] = {}
@@ -55,8 +58,8 @@ class GpuMesh:
         self._held: dict[str, np.ndarray] = {}
         self._ctx = ctx
 
-    _LAYOUT = "3f 3f 2f 4f"
-    _NAMES = ("in_position", "in_normal", "in_uv", "in_tangent")
+    _LAYOUT = "3f 3f 2f 4f 2f"
+    _NAMES = ("in_position", "in_normal", "in_uv", "in_tangent", "in_texture_uv")
 
     def vao(self, prog: moderngl.Program, subset: str = "") -> moderngl.VertexArray:
         """A vertex array binding the attributes `prog` uses (cached per program), over all

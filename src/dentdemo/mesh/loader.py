@@ -90,8 +90,8 @@ def _overlap_fraction(uv: NDArray[np.float64], tris: NDArray[np.integer]) -> flo
 
 
 def reatlas(
-    positions: NDArray, indices: NDArray, normals: NDArray
-) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    positions: NDArray, indices: NDArray, normals: NDArray, return_mapping: bool = False
+) -> tuple:
     """New unique UVs from xatlas, with gutters between charts; returns (positions, normals, uvs,
     indices) with vertices split along the new seams."""
     import xatlas
@@ -106,6 +106,8 @@ def reatlas(
     pack.bilinear = True
     atlas.generate(xatlas.ChartOptions(), pack)
     vmapping, new_indices, uvs = atlas[0] if hasattr(atlas, "__getitem__") else atlas.get_mesh(0)
+    if return_mapping:  # which input vertex each output vertex copies
+        return positions[vmapping], normals[vmapping], uvs, new_indices, vmapping
     return positions[vmapping], normals[vmapping], uvs, new_indices
 
 
@@ -147,7 +149,21 @@ def _load_mesh(resolved: Path, shown: str, scale: float, mtime_ns: int, size: in
         visual_uv,
         name=str(path),
         scale=scale,
+        base_colour_image=_base_colour_image(loaded),
     )
+
+
+def _base_colour_image(loaded: object) -> NDArray[np.uint8] | None:
+    """The base-colour texture of an OBJ/MTL (map_Kd) or glTF (baseColorTexture) mesh, as
+    uint8 RGBA rows top-down; None when it has none."""
+    material = getattr(getattr(loaded, "visual", None), "material", None)
+    image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+    if image is None:
+        return None
+    try:
+        return np.asarray(image.convert("RGBA"), dtype=np.uint8)
+    except (OSError, ValueError) as exc:
+        raise DentdemoError(f"cannot read the mesh's texture ({exc})") from None
 
 
 def mesh_from_triangles(
@@ -156,10 +172,12 @@ def mesh_from_triangles(
     uvs: NDArray[np.floating] | None = None,
     name: str = "mesh",
     scale: float = 1.0,
+    base_colour_image: NDArray[np.uint8] | None = None,
 ) -> Mesh:
     """A Mesh from triangles (positions (n, 3) metres, indices (m, 3)) and optional texture
     coordinates; re-atlased (with one warning) when the coordinates are missing, tiled or
-    overlapping, as the carve needs a unique atlas. `name` names the mesh in messages."""
+    overlapping, as the carve needs a unique atlas. `name` names the mesh in messages. A
+    base-colour image keeps being sampled at the given coordinates (`Mesh.texture_uvs`)."""
     positions = np.asarray(positions, dtype=np.float64)
     indices = np.asarray(indices, dtype=np.uint32).reshape(-1, 3)
     if len(indices) == 0:
@@ -179,12 +197,28 @@ def mesh_from_triangles(
         coords = np.asarray(uvs, dtype=np.float64)[source]
     positions = positions[source]
     report = check_uvs(coords, indices)
+    texture_uvs = coords if base_colour_image is not None else None
     if not report.ok:
         warnings.warn(
             f"{name}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2
         )
-        positions, normals, coords, indices = reatlas(positions, indices, normals)
-    mesh = Mesh(Path(name).stem, positions, normals, coords, indices)
+        positions, normals, new_coords, indices, kept = reatlas(
+            positions, indices, normals, return_mapping=True
+        )
+        if texture_uvs is not None:
+            texture_uvs = texture_uvs[kept]
+        coords = new_coords
+    if base_colour_image is not None and texture_uvs is None:
+        base_colour_image = None  # an image without coordinates to sample it by
+    mesh = Mesh(
+        Path(name).stem,
+        positions,
+        normals,
+        coords,
+        indices,
+        base_colour_image=base_colour_image,
+        texture_uvs=texture_uvs,
+    )
     if len(mesh.indices) == 0:
         raise DentdemoError(
             f"{name}: every triangle has no area at scale {scale:g} (too small to draw or carve)"

@@ -51,11 +51,18 @@ class Mesh:
     tangents: F32 = field(default=None)  # type: ignore[arg-type]  # made in __post_init__; (n, 4): xyz along +u, w = handedness (+1 right-handed)
     #: The solid that holds the mesh, where it is a built-in shape (None: only its triangles).
     bound: Bound | None = None
+    #: The file's own base-colour image, uint8 [rows top-down, cols, RGB(A)] sRGB, or None.
+    base_colour_image: NDArray[np.uint8] | None = None
+    #: Where that image is sampled: the file's texture coordinates (n, 2), which may tile or
+    #: overlap (the carve's atlas is `uvs`). None: `uvs`.
+    texture_uvs: F32 | None = None
 
     def __post_init__(self) -> None:
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float32)
         self.normals = np.ascontiguousarray(self.normals, dtype=np.float32)
         self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float32)
+        if self.texture_uvs is not None:
+            self.texture_uvs = np.ascontiguousarray(self.texture_uvs, dtype=np.float32)
         self.indices = np.ascontiguousarray(self.indices, dtype=np.uint32).reshape(-1, 3)
         self._drop_degenerate()
         self._orient_outward()

@@ -37,6 +37,8 @@ class DrawItem:
     model: NDArray[np.float64]
     look: Appearance
     maps: SurfaceMaps | None = None
+    #: The mesh's own base-colour image (it replaces the look's base colour), or None.
+    texture: moderngl.Texture | None = None
 
 
 @dataclass(frozen=True)

@@ -98,11 +98,14 @@ class Renderer:
             "u_light_colour": tuple(np.asarray(light.colour) * light.intensity),
             "u_ambient": light.ambient,
         }
-        draws = [(item.mesh, item.model, item.maps, item.look, False) for item in description.items]
+        draws = [
+            (item.mesh, item.model, item.maps, item.look, False, item.texture)
+            for item in description.items
+        ]
         if description.ground_y is not None:
             ground = np.eye(4)
             ground[1, 3] = description.ground_y
-            draws.append((self._ground, ground, None, GROUND, True))
+            draws.append((self._ground, ground, None, GROUND, True, None))
         env = environment(self.gl, tuple(light_dir))
         # Shadow pass.
         self.shadow.use()
@@ -113,7 +116,7 @@ class Renderer:
         ctx.depth_func = "<"
         if options.shadows:
             _uniforms(self._depth, frame)
-            for gpu, model, _, _, ground in draws:
+            for gpu, model, _, _, ground, _ in draws:
                 if ground:
                     continue  # the ground only receives shadows: nothing lies under it
                 _matrix(self._depth, "u_model", model)
@@ -148,9 +151,13 @@ class Renderer:
             ("u_irradiance", 4),
             ("u_levels", LEVELS),
             ("u_exposure", EXPOSURE),
+            ("u_base_texture", 5),
         ):
             _set(prog, name, value)
-        for gpu, model, maps, appearance, checker in draws:
+        for gpu, model, maps, appearance, checker, texture in draws:
+            _set(prog, "u_textured", texture is not None)
+            if texture is not None:
+                texture.use(5)
             _set(prog, "u_base_colour", appearance.base_colour)
             _set(prog, "u_metalness", appearance.metalness)
             _set(prog, "u_roughness", appearance.roughness)
