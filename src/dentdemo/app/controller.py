@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dentdemo.app.describe import describe
 from dentdemo.app.simulation import Simulation
 from dentdemo.gl.context import GLContext
 from dentdemo.model.materials import MaterialLibrary
@@ -207,7 +208,7 @@ class DemoController:
 
     # -- frames --------------------------------------------------------------------------------
     def render(self):
-        return self.renderer.render(self.sim.describe(self.camera, self.options))
+        return self.renderer.render(describe(self.sim, self.camera, self.options))
 
     def resize(self, size: tuple[int, int]) -> None:
         if size != self.renderer.size and min(size) > 0:

@@ -27,8 +27,6 @@ from dentdemo.model.scene import BodySpec, Scene
 from dentdemo.model.shapes import Plane, Plate, Sphere
 from dentdemo.physics.simulate import build_world
 from dentdemo.physics.world import Impact, PhysicsWorld, quat_to_matrix
-from dentdemo.render.camera import OrbitCamera
-from dentdemo.render.frame import DrawItem, FrameDescription, Inset, RenderOptions
 
 #: How many recent carve points the contact debug view keeps.
 CARVED_POINTS_KEPT = 1024
@@ -293,40 +291,6 @@ class Simulation:
             request.depth_a,
             request.depth_b,
         )
-
-    # -- what a frame shows -------------------------------------------------------------------
-    def describe(self, camera: OrbitCamera, options: RenderOptions) -> FrameDescription:
-        """The frame as the renderer needs it: every body at its pose with its maps, the light,
-        the ground, and the debug overlays the options ask for."""
-        items: list[DrawItem] = []
-        ground_y: float | None = None
-        for body_id, body in self.bodies.items():
-            if isinstance(body.spec.shape, Plane):
-                ground_y = body.spec.position[1]
-                continue
-            model = self.model(body_id)
-            look = body.spec.material.appearance
-            items.append(DrawItem(body.gpu_mesh, model, look, body.maps, body.texture))
-            if body.under is not None:
-                items.append(DrawItem(body.under, model, look))
-        lines = np.zeros((0, 6), np.float32)
-        if options.contacts:
-            lines = self._contact_lines()
-        inset = None
-        if options.address_map and self.carver.last_jobs:
-            resolution = self.carver.last_jobs[0].camera.resolution
-            inset = Inset(self.carver.slot_textures(0), (resolution[0], resolution[1]))
-        return FrameDescription(items, camera, self.scene.light, options, ground_y, lines, inset)
-
-    def _contact_lines(self) -> NDArray[np.float32]:
-        """Impacts (yellow to red, along the normal, 10 cm) and carves (green ticks, 4 cm up)."""
-        rows = []
-        for impact in self.last_impacts[-512:]:
-            p, n = impact.point, impact.normal
-            rows += [[*p, 1.0, 0.9, 0.1], [*(p + 0.1 * n), 1.0, 0.2, 0.1]]
-        for p in list(self.carved_points)[-256:]:
-            rows += [[*(p + [0, 0.002, 0]), 0.1, 1.0, 0.3], [*(p + [0, 0.04, 0]), 0.1, 1.0, 0.3]]
-        return np.asarray(rows, np.float32).reshape(-1, 6)
 
     # -- lifecycle -----------------------------------------------------------------------------
     def reset(self) -> None:
