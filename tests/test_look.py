@@ -32,3 +32,22 @@ def test_a_one_millimetre_dent_is_visible_in_a_close_up(gl, quality):
         for shift in (-12, 12):
             grown &= np.roll(outside, shift, axis=axis)
     assert (np.abs(dent - plain).max(axis=2)[grown] >= 10).mean() < 0.001
+
+
+def test_height_view_reads_in_millimetres_with_its_legend(gl):
+    """The height view colours depth on a fixed millimetre scale, the same ramp its legend
+    draws: the centre of a 1 mm dent, with a 5 mm full scale, is the ramp at 0.2."""
+    from closeup_helpers import DEPTH, SIZE, render_closeup
+    from dentdemo.render.frame import RenderOptions
+    from dentdemo.render.legend import SIZE as LEGEND
+    from dentdemo.render.legend import ramp
+
+    options = RenderOptions(view=1, legend_depth=0.005)
+    image = render_closeup(gl, True, options=options, quality=PRESETS["high"]).astype(int)
+    x, y = camera().project(np.zeros(3), SIZE[0] / SIZE[1], SIZE)[0]
+    expected = np.round(ramp(np.array(DEPTH / 0.005)) * 255)
+    np.testing.assert_allclose(image[int(y), int(x)], expected, atol=3)
+    # Untouched plate: the ramp's first stop; the legend sits in the bottom-left corner.
+    np.testing.assert_allclose(image[40, 320], np.round(ramp(np.array(0.0)) * 255), atol=3)
+    corner = image[SIZE[1] - 8 - LEGEND[1] + 2 : SIZE[1] - 10, 10 : 8 + LEGEND[0] - 2]
+    assert corner.std() > 20  # the ramp and its labels, not the plate

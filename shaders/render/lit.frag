@@ -22,6 +22,7 @@
 #include "../include/equirect.glsl"
 #include "../include/tonemap.glsl"
 #include "surface_detail.glsl"
+#include "depth_ramp.glsl"
 
 uniform sampler2D u_normal_map;   // RGBA8 tangent-space normal
 uniform sampler2D u_height_map;   // R32F metres (negative = dent)
@@ -39,6 +40,7 @@ uniform sampler2D u_base_texture; // that image, sRGB bytes, row 0 at texture v 
 uniform float u_exposure;         // scene-referred scale before the tone curve
 uniform vec2 u_uv_per_metre;      // texture-space length of one metre along +u and +v
 uniform float u_max_depth;        // deepest possible dent, metres (parallax search range)
+uniform float u_legend_depth;     // the height view's full-scale depth, metres (the legend's)
 
 in vec3 v_world;
 in vec2 v_uv;
@@ -133,12 +135,22 @@ void main() {
     vec2 uv = v_uv;
 #endif
     vec3 n = normalize(tbn * decode_normal(texture(u_normal_map, uv).rgb));
+#if VIEW != 0
+    // Debug views: outlines where a body turns away from the view (silhouettes, plate edges),
+    // so that touching bodies do not merge into one plane.
+    float facing = abs(dot(normalize(v_normal), view));
+    float outline = smoothstep(0.08, 0.3, facing);
 #if VIEW == 1
-    float d = clamp(depth_at(uv) / max(u_max_depth, 1e-6), 0.0, 1.0);
-    f_colour = vec4(linear_to_srgb(mix(vec3(0.9), vec3(0.9, 0.1, 0.05), sqrt(d))), 1.0);
-    return;
-#elif VIEW == 2
-    f_colour = vec4(texture(u_normal_map, uv).rgb, 1.0);
+    float t = depth_at(uv) / max(u_legend_depth, 1e-9);
+    vec3 shown = depth_ramp(t);
+#else
+    vec3 shown = texture(u_normal_map, uv).rgb;
+#endif
+    if (u_checker) {  // the ground recedes, so that bodies stand out from it
+        vec2 cell = floor(v_world.xz / 0.25);
+        shown *= mod(cell.x + cell.y, 2.0) < 0.5 ? 0.45 : 0.38;
+    }
+    f_colour = vec4(shown * mix(0.15, 1.0, outline), 1.0);
     return;
 #endif
     vec3 base = u_base_colour;

@@ -26,6 +26,8 @@ class RenderOptions:
     contacts: bool = False
     address_map: bool = False
     shadows: bool = True
+    #: The height view's full-scale dent depth (the legend's top), metres.
+    legend_depth: float = 0.005
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ from dentdemo.mesh import primitives
 from dentdemo.render.camera import look_at, orthographic
 from dentdemo.render.environment import LEVELS, environment
 from dentdemo.render.frame import FrameDescription, Inset, RenderOptions
+from dentdemo.render.legend import legend_texture
 from dentdemo.render.looks import GROUND, surface_code
 from dentdemo.render.quality import Quality, preset
 
@@ -57,6 +58,9 @@ class Renderer:
         self._overlay = program(gl.cache, ctx, "util/rect.vert", "render/overlay.frag")
         self._empty_sky = ctx.vertex_array(self._sky, [])
         self._empty_rect = ctx.vertex_array(self._overlay, [])
+        self._image = program(gl.cache, ctx, "util/rect.vert", "render/image.frag")
+        self._empty_image = ctx.vertex_array(self._image, [])
+        self._legends: dict[tuple[int, float], moderngl.Texture] = {}
         self._ground = GpuMesh(gl, primitives.plate(GROUND_SIDE, subdivisions=1))
         self._flat_normal = ctx.texture((1, 1), 4, bytes([128, 128, 255, 255]))
         self._flat_height = ctx.texture((1, 1), 1, np.zeros(1, "f4").tobytes(), dtype="f4")
@@ -152,6 +156,7 @@ class Renderer:
             ("u_levels", LEVELS),
             ("u_exposure", EXPOSURE),
             ("u_base_texture", 5),
+            ("u_legend_depth", options.legend_depth),
         ):
             _set(prog, name, value)
         for gpu, model, maps, appearance, checker, texture in draws:
@@ -199,6 +204,8 @@ class Renderer:
         ctx.viewport = (0, 0, *self.size)
         if options.address_map and description.inset is not None:
             self._draw_inset(description.inset)
+        if options.view in (1, 2):
+            self._draw_legend(options.view, options.legend_depth)
         return self.output
 
     def _light_matrix(self, centre: np.ndarray, direction: np.ndarray) -> np.ndarray:
@@ -225,6 +232,21 @@ class Renderer:
         _set(self._overlay, "u_viewport", self.size)
         self._empty_rect.render(moderngl.TRIANGLE_STRIP, vertices=4)
 
+    def _draw_legend(self, view: int, full_scale: float) -> None:
+        key = (view, float(full_scale))
+        if key not in self._legends:
+            self._legends[key] = legend_texture(self.gl.ctx, view, full_scale)
+        texture = self._legends[key]
+        ctx = self.gl.ctx
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        texture.use(0)
+        _set(self._image, "u_texture", 0)
+        _set(self._image, "u_rect", (8, 8, *texture.size))
+        _set(self._image, "u_viewport", self.size)
+        self._empty_image.render(moderngl.TRIANGLE_STRIP, vertices=4)
+        ctx.disable(moderngl.BLEND)
+
     def read_rgb(self) -> np.ndarray:
         """The last frame as uint8 [rows top-down, cols, 3] (screenshots and tests only)."""
         return self.gl.read_framebuffer(self.output)[::-1]
@@ -236,6 +258,8 @@ class Renderer:
             self._empty_sky,
             self._empty_rect,
             self._empty_upscale,
+            self._empty_image,
+            *self._legends.values(),
             self._resolved_fbo,
             self._resolved,
             self.msaa,
