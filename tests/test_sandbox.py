@@ -227,7 +227,8 @@ def test_close_up_frames_the_last_hit(gl):
         assert not app.close_up() and app.last_dent_text() == "no dent yet"
         while app.sim.last_hit is None:
             app.sim.step()
-        hit = app.sim.last_hit
+        request = app.sim.last_hit
+        hit = request.impact
         assert app.close_up()
         offset = app.camera.eye - hit.point
         np.testing.assert_allclose(app.camera.target, hit.point, atol=1e-12)
@@ -235,8 +236,8 @@ def test_close_up_frames_the_last_hit(gl):
         up = hit.normal if hit.normal[1] >= 0 else -hit.normal
         elevation = np.degrees(np.arcsin(offset @ up / np.linalg.norm(offset)))
         assert elevation == pytest.approx(40.0, abs=1e-6)
-        body, depth = hit.deepest()
+        body, depth = request.deepest()
         assert app.last_dent_text() == f"last dent {depth * 1e3:.2f} mm deep in {body}"
-        assert depth == max(hit.depth_target, hit.depth_tool) > 0
+        assert depth == max(request.depth_a, request.depth_b) > 0
     finally:
         app.close()

@@ -160,9 +160,9 @@ class DemoController:
         """Frame the last hit (key F, panel "close-up"): the camera 0.3 m from it, 40 degrees
         above the contact plane on its upper side, keeping the current heading. False before
         any hit."""
-        hit = self.sim.last_hit
-        if hit is None:
+        if self.sim.last_hit is None:
             return False
+        hit = self.sim.last_hit.impact  # its normal points out of body A, towards B
         n = hit.normal / max(float(np.linalg.norm(hit.normal)), 1e-12)
         if n[1] < 0:  # both bodies are dented: look from the open side, the upper one
             n = -n

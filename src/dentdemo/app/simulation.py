@@ -57,24 +57,11 @@ class CarveRequest:
     model_a: NDArray[np.float64]
     model_b: NDArray[np.float64]
 
-
-@dataclass(frozen=True)
-class Hit:
-    """The most recent carve: where (world m), the surface normal there (unit, out of the
-    target), which bodies, and the dent depths the material model gave (m)."""
-
-    point: NDArray[np.float64]
-    normal: NDArray[np.float64]
-    target: str
-    tool: str
-    depth_target: float
-    depth_tool: float
-
     def deepest(self) -> tuple[str, float]:
         """The body with the deeper dent and that depth, metres."""
-        if self.depth_target >= self.depth_tool:
-            return self.target, self.depth_target
-        return self.tool, self.depth_tool
+        if self.depth_a >= self.depth_b:
+            return self.impact.body_a, self.depth_a
+        return self.impact.body_b, self.depth_b
 
 
 @dataclass
@@ -126,7 +113,7 @@ class Simulation:
         #: Where the most recent carves were, world metres (the contact debug view).
         self.carved_points: deque[NDArray[np.float64]] = deque(maxlen=CARVED_POINTS_KEPT)
         #: The most recent carve (the close-up camera frames it), None before the first.
-        self.last_hit: Hit | None = None
+        self.last_hit: CarveRequest | None = None
         self.ball_count = 0
         self._time_debt = 0.0
         self.bodies: dict[str, SimBody] = {}
@@ -283,14 +270,7 @@ class Simulation:
         contact = ContactFrame(point, -impact.normal)
         self.carver.carve(target, tool, contact, request.depth_a, request.depth_b)
         self.carved_points.append(point)
-        self.last_hit = Hit(
-            np.asarray(point, dtype=np.float64),
-            np.asarray(impact.normal, dtype=np.float64),
-            impact.body_a,
-            impact.body_b,
-            request.depth_a,
-            request.depth_b,
-        )
+        self.last_hit = request
 
     # -- lifecycle -----------------------------------------------------------------------------
     def reset(self) -> None:
