@@ -17,14 +17,9 @@ from dentdemo.gl.state import preserved
 LEVELS = 6
 LEVEL_SIZE = (256, 128)
 IRRADIANCE_SIZE = (32, 16)
-
-
-@dataclass(frozen=True)
-class Quality:
-    """How much work the bake does (samples per texel of the rough rows, of the irradiance)."""
-
-    specular_samples: int = 96
-    irradiance_samples: int = 256
+#: Samples per texel of the rough rows and of the irradiance map (a start-up cost only).
+SPECULAR_SAMPLES = 96
+IRRADIANCE_SAMPLES = 256
 
 
 @dataclass
@@ -37,23 +32,21 @@ class Environment:
         release(self.radiance, self.irradiance)
 
 
-def environment(
-    gl: GLContext, sun_dir: tuple[float, float, float], quality: Quality = Quality()
-) -> Environment:
+def environment(gl: GLContext, sun_dir: tuple[float, float, float]) -> Environment:
     """The baked environment for this context and sun direction (cached)."""
-    key = f"environment:{tuple(round(float(x), 6) for x in sun_dir)}:{quality}"
+    key = f"environment:{tuple(round(float(x), 6) for x in sun_dir)}"
     if key not in gl.cache:
-        gl.cache[key] = _bake(gl, np.asarray(sun_dir, float), quality)
+        gl.cache[key] = _bake(gl, np.asarray(sun_dir, float))
     return gl.cache[key]
 
 
-def _bake(gl: GLContext, sun_dir: np.ndarray, quality: Quality) -> Environment:
+def _bake(gl: GLContext, sun_dir: np.ndarray) -> Environment:
     ctx = gl.ctx
     sun = tuple(float(x) for x in sun_dir / np.linalg.norm(sun_dir))
     out = []
     for irradiance, size, rows, samples in (
-        (0, LEVEL_SIZE, LEVELS, quality.specular_samples),
-        (1, IRRADIANCE_SIZE, 1, quality.irradiance_samples),
+        (0, LEVEL_SIZE, LEVELS, SPECULAR_SAMPLES),
+        (1, IRRADIANCE_SIZE, 1, IRRADIANCE_SAMPLES),
     ):
         texture = ctx.texture((size[0], size[1] * rows), 4, dtype="f2")
         texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
