@@ -28,16 +28,18 @@ def render_headless(
     load_state: Path | None = None,
     save_state: Path | None = None,
     quality: str | None = None,
-    view: tuple[tuple[float, float, float], tuple[float, float, float], float] | None = None,
+    eye: tuple[float, float, float] | None = None,
+    target: tuple[float, float, float] | None = None,
+    fov: float | None = None,
     video: Path | None = None,
     progress: bool = False,
 ) -> None:
     """Simulate `frames` steps and write the last frame (every frame, `out` % frame, with
     `every_frame`). `load_state` resumes a saved run first (the frames continue it);
     `save_state` saves the run after the last frame, before anything the carve budget deferred
-    is flushed, so that a resumed run continues exactly. `view` (eye, target, field of view in
-    degrees; world metres) replaces the scene's camera. `video` (.mp4 or .gif) gets every frame
-    as well, at the scene's frame rate."""
+    is flushed, so that a resumed run continues exactly. `eye`, `target` (world metres) and
+    `fov` (degrees) replace the scene camera's, each where given. `video` (.mp4 or .gif) gets
+    every frame as well, at the scene's frame rate."""
     from dentdemo.app.controller import DemoController  # loads ODE
     from dentdemo.app.loop import FrameLoop, ImageBackend, VideoBackend
 
@@ -45,12 +47,16 @@ def render_headless(
         raise DentdemoError(f"--frames: must be at least 1, got {frames}")
     materials = load_materials(materials_files)
     scene = load_scene(scene_file, materials)
+    eye = eye if eye is not None else scene.camera.eye
+    target = target if target is not None else scene.camera.target
+    if max(abs(a - b) for a, b in zip(eye, target, strict=True)) < 1e-9:
+        raise DentdemoError(f"--eye/--target: the camera cannot look at itself ({list(eye)})")
     gl = create_headless()
     try:
         app = DemoController(gl, scene, materials, size, denting=denting, quality=quality)
         app.options = options or RenderOptions()
-        if view is not None:
-            app.camera = OrbitCamera.from_eye(np.asarray(view[0]), np.asarray(view[1]), view[2])
+        fov_deg = fov if fov is not None else scene.camera.fov_deg
+        app.camera = OrbitCamera.from_eye(np.asarray(eye), np.asarray(target), fov_deg)
         if load_state is not None:
             from dentdemo.app.state import load_state as resume
 

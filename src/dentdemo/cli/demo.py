@@ -54,27 +54,28 @@ def run(args: argparse.Namespace) -> int:
     path = Path(args.scene)
     scene = load_scene(path, materials)
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
-        return _headless_instead(args, path, exit_after, "no display (DISPLAY is not set)")
+        return _headless_instead(
+            args, path, scene.physics.dt, exit_after, "no display (DISPLAY is not set)"
+        )
     from dentdemo.app.window import DemoWindow
 
     try:
         window = DemoWindow(scene, materials, args.size, args.quality)
     except GLUnavailableError as exc:
-        return _headless_instead(args, path, exit_after, str(exc).removeprefix("dentdemo: "))
+        why = str(exc).removeprefix("dentdemo: ")
+        return _headless_instead(args, path, scene.physics.dt, exit_after, why)
     return window.run(shot, exit_after)
 
 
 def _headless_instead(
-    args: argparse.Namespace, path: Path, exit_after: float | None, why: str
+    args: argparse.Namespace, path: Path, dt: float, exit_after: float | None, why: str
 ) -> int:
+    """The same scene (its frame step `dt`, seconds) rendered headless, for lack of a window."""
     from dentdemo.app.headless import render_headless
-    from dentdemo.model.materials import load_materials
-    from dentdemo.model.scene import load_scene
 
     out = Path(args.screenshot) if args.screenshot else HEADLESS_FALLBACK
     check_output_file("--screenshot", out)
     seconds = exit_after if exit_after is not None else FALLBACK_SECONDS
-    dt = load_scene(path, load_materials(args.materials)).physics.dt
     frames = max(1, round(seconds / dt))
     print(
         f"dentdemo: {why}; rendering the same scene headless instead ({frames} frames) to {out}",

@@ -84,22 +84,6 @@ def frame_pattern(out: Path) -> bool:
     return True
 
 
-def camera_view(args: argparse.Namespace):  # noqa: ANN201
-    """(eye, target, fov) from --eye/--target/--fov, the scene's values filling in; None when
-    none is given."""
-    if args.eye is None and args.target is None and args.fov is None:
-        return None
-    from dentdemo.model.materials import load_materials
-    from dentdemo.model.scene import load_scene
-
-    cam = load_scene(Path(args.scene), load_materials(args.materials)).camera
-    eye = tuple(args.eye) if args.eye is not None else cam.eye
-    target = tuple(args.target) if args.target is not None else cam.target
-    if max(abs(a - b) for a, b in zip(eye, target, strict=True)) < 1e-9:
-        raise DentdemoError(f"--eye/--target: the camera cannot look at itself ({list(eye)})")
-    return eye, target, args.fov if args.fov is not None else cam.fov_deg
-
-
 def run(args: argparse.Namespace) -> int:
     from dentdemo.app.headless import render_headless
     from dentdemo.render.renderer import RenderOptions
@@ -120,7 +104,6 @@ def run(args: argparse.Namespace) -> int:
     save_state = Path(args.save_state) if args.save_state else None
     if save_state is not None:
         check_output_dir("--save-state", save_state)
-    view = camera_view(args)
     render_headless(
         Path(args.scene),
         args.materials,
@@ -134,7 +117,9 @@ def run(args: argparse.Namespace) -> int:
         load_state=Path(args.load_state) if args.load_state else None,
         save_state=save_state,
         quality=args.quality,
-        view=view,
+        eye=tuple(args.eye) if args.eye is not None else None,
+        target=tuple(args.target) if args.target is not None else None,
+        fov=args.fov,
         video=video,
         progress=True,
     )
