@@ -69,9 +69,12 @@ def _gl() -> ctypes.CDLL:
     for name in ("libOpenGL.so.0", "libGL.so.1", ctypes.util.find_library("GL")):
         if name:
             try:
-                return ctypes.CDLL(name)
+                gl = ctypes.CDLL(name)
             except OSError:
                 continue
+            for query in ("Enabled", "Framebuffer", "Program", "VertexArray", "Buffer", "Texture"):
+                getattr(gl, f"glIs{query}").restype = ctypes.c_ubyte  # GLboolean
+            return gl
     raise OSError("no OpenGL library (libOpenGL.so.0 or libGL.so.1) to read the GL state")
 
 
@@ -89,7 +92,6 @@ class GLState:
 def capture() -> GLState:
     """The current context's state (it must be current)."""
     gl = _gl()
-    gl.glIsEnabled.restype = ctypes.c_ubyte
     enabled = {name: bool(gl.glIsEnabled(cap)) for name, cap in CAPABILITIES.items()}
 
     def ints(pname: int, count: int) -> tuple[int, ...]:
@@ -145,9 +147,7 @@ def restore(state: GLState) -> None:
     def alive(test: str, name: int) -> int:
         """`name` if it still names an object (a program the host deleted while current is
         gone once another is used), else 0."""
-        check = getattr(gl, test)
-        check.restype = ctypes.c_ubyte
-        return name if name and check(name) else 0
+        return name if name and getattr(gl, test)(name) else 0
 
     gl.glBindFramebuffer(0x8CA9, alive("glIsFramebuffer", i["draw_framebuffer"][0]))
     gl.glBindFramebuffer(0x8CA8, alive("glIsFramebuffer", i["read_framebuffer"][0]))
