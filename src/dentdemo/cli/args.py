@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import math
 import re
-import sys
 from collections.abc import Callable
 from typing import NoReturn
 
@@ -150,7 +149,3 @@ def size_wxh(text: str) -> tuple[int, int]:
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
         raise argparse.ArgumentTypeError(f"must lie between 16x16 and 8192x8192, got '{text}'")
     return w, h
-
-
-def stderr_line(text: str) -> None:
-    print(text, file=sys.stderr)
