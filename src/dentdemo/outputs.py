@@ -101,12 +101,17 @@ def write_json(path: Path, payload: Any) -> Path:
     return write_text(path, json.dumps(payload, indent=2) + "\n")
 
 
-def write_npy(path: Path, array: NDArray[Any]) -> Path:
+def npy_bytes(array: NDArray[Any]) -> bytes:
+    """An array as the bytes of a .npy file."""
     import numpy as np
 
     buffer = io.BytesIO()
     np.save(buffer, array)
-    return write_bytes(path, buffer.getvalue())
+    return buffer.getvalue()
+
+
+def write_npy(path: Path, array: NDArray[Any]) -> Path:
+    return write_bytes(path, npy_bytes(array))
 
 
 def write_png(path: Path, pixels: NDArray[Any]) -> Path:

@@ -97,9 +97,7 @@ def save_state(sim: Simulation, directory: Path) -> Path:
         if not body.spec.dentable:
             continue
         height = np.ascontiguousarray(sim.gl.read(body.maps.height)[:, :, 0], dtype=np.float32)
-        buffer = io.BytesIO()
-        np.save(buffer, height)
-        data = buffer.getvalue()
+        data = outputs.npy_bytes(height)  # written as is, and hashed
         name = f"{body_id}.npy"
         outputs.write_bytes(directory / name, data)
         maps[body_id] = {"file": name, "shape": list(height.shape), "sha256": _sha256(data)}
