@@ -173,10 +173,11 @@ def create_headless(backend: str | None = None) -> GLContext:
     return _checked(GLContext(ctx=ctx, backend=name))
 
 
-def create_window(
-    width: int, height: int, title: str, *, visible: bool = True, samples: int = 4
-) -> GLContext:
-    """A glfw window with an OpenGL 3.3 core context (forward compatible, as macOS requires)."""
+def create_window(width: int, height: int, title: str, *, visible: bool = True) -> GLContext:
+    """A glfw window with an OpenGL 3.3 core context (forward compatible, as macOS requires).
+    Its framebuffer only receives finished images (the renderer does its own multisampling and
+    depth test offscreen), so it has neither samples nor depth: on a software rasteriser a 4x
+    multisampled window made every touch of the screen, swap included, cost a resolve."""
     import glfw
 
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
@@ -188,7 +189,9 @@ def create_window(
     glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
     glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
     glfw.window_hint(glfw.VISIBLE, visible)
-    glfw.window_hint(glfw.SAMPLES, samples)
+    glfw.window_hint(glfw.SAMPLES, 0)
+    glfw.window_hint(glfw.DEPTH_BITS, 0)
+    glfw.window_hint(glfw.STENCIL_BITS, 0)
     window = glfw.create_window(width, height, title, None, None)
     if not window:
         raise GLUnavailableError(
