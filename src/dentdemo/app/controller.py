@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import moderngl
 import numpy as np
 
 from dentdemo.app.describe import describe
@@ -207,8 +208,9 @@ class DemoController:
         self.camera.zoom(math.pow(0.9, steps))
 
     # -- frames --------------------------------------------------------------------------------
-    def render(self):
-        return self.renderer.render(describe(self.sim, self.camera, self.options))
+    def render(self, target: moderngl.Framebuffer | None = None) -> moderngl.Framebuffer:
+        """Describe and draw the frame into `target` (default: the renderer's output)."""
+        return self.renderer.render(describe(self.sim, self.camera, self.options), target)
 
     def resize(self, size: tuple[int, int]) -> None:
         if size != self.renderer.size and min(size) > 0:

@@ -23,7 +23,7 @@ def describe(sim: Simulation, camera: OrbitCamera, options: RenderOptions) -> Fr
             continue
         model = sim.model(body_id)
         look = body.spec.material.appearance
-        items.append(DrawItem(body.gpu_mesh, model, look, body.maps, body.texture))
+        items.append(DrawItem(body.gpu_mesh, model, look, body.maps, body.texture, body.coarser))
         if body.under is not None:
             items.append(DrawItem(body.under, model, look))
     lines = np.zeros((0, 6), np.float32)

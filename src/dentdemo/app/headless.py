@@ -41,7 +41,7 @@ def render_headless(
     `fov` (degrees) replace the scene camera's, each where given. `video` (.mp4 or .gif) gets
     every frame as well, at the scene's frame rate."""
     from dentdemo.app.controller import DemoController  # loads ODE
-    from dentdemo.app.loop import FrameLoop, ImageBackend, VideoBackend
+    from dentdemo.app.loop import FrameLoop, ImageBackend, Tee, VideoBackend
 
     if frames < 1:
         raise DentdemoError(f"--frames: must be at least 1, got {frames}")
@@ -63,7 +63,7 @@ def render_headless(
             resume(app.sim, load_state)
         images = ImageBackend(size, out, every_frame)
         clip = VideoBackend(size, video, 1.0 / scene.physics.dt) if video is not None else None
-        backend = images if clip is None else _Both(images, clip)
+        backend = images if clip is None else Tee(images, clip)
         try:
             FrameLoop(app, backend, fixed_dt=True).run(frames=frames, progress=progress)
         except BaseException:
@@ -82,20 +82,3 @@ def render_headless(
         app.close()
     finally:
         gl.release()
-
-
-class _Both:
-    """Frames to the images and the video at once."""
-
-    def __init__(self, images, clip) -> None:  # noqa: ANN001
-        self.images, self.clip = images, clip
-
-    def open(self) -> bool:
-        return True
-
-    def size(self) -> tuple[int, int]:
-        return self.images.size()
-
-    def present(self, app, output, last: bool) -> None:  # noqa: ANN001
-        self.images.present(app, output, last)
-        self.clip.present(app, output, last)

@@ -31,6 +31,11 @@ class Backend(Protocol):
         """Pixels the next frame should have."""
         ...
 
+    def target(self) -> moderngl.Framebuffer | None:
+        """Where the renderer draws the finished frame (a window's screen), or None for the
+        renderer's own output framebuffer."""
+        ...
+
     def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
         """Show or keep the rendered frame (`last`: the loop ends after it)."""
         ...
@@ -73,7 +78,7 @@ class FrameLoop:
         finish()  # the frame's carves done on the GPU
         carved = time.perf_counter()
         self.app.resize(self.backend.size())
-        output = self.app.render()
+        output = self.app.render(self.backend.target())
         finish()
         rendered = time.perf_counter()
         self.backend.present(self.app, output, last)
@@ -116,7 +121,22 @@ def _nothing() -> None:
     return None
 
 
-class VideoBackend:
+class OffscreenBackend:
+    """A backend without a window: always open, frames in the renderer's own output."""
+
+    _size: tuple[int, int]
+
+    def open(self) -> bool:
+        return True
+
+    def size(self) -> tuple[int, int]:
+        return self._size
+
+    def target(self) -> None:
+        return None
+
+
+class VideoBackend(OffscreenBackend):
     """Every frame into one video: MP4 (H.264 through imageio-ffmpeg's ffmpeg) or an animated GIF
     (Pillow), at the simulation's frame rate. The file is written beside its final name and
     renamed when the loop ends (`finish`); `discard` removes it instead."""
@@ -146,12 +166,6 @@ class VideoBackend:
                 ffmpeg_log_level="error",
             )
             self._writer.send(None)
-
-    def open(self) -> bool:
-        return True
-
-    def size(self) -> tuple[int, int]:
-        return self._size
 
     def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
         pixels = app.renderer.read_rgb()
@@ -190,7 +204,7 @@ class VideoBackend:
         self._tmp.unlink(missing_ok=True)
 
 
-class ImageBackend:
+class ImageBackend(OffscreenBackend):
     """Frames as PNG files: every frame (`out` holds a %d pattern) or only the last one; none
     when `out` is None (the bench)."""
 
@@ -200,15 +214,21 @@ class ImageBackend:
         self.every_frame = every_frame
         self._index = 0
 
-    def open(self) -> bool:
-        return True
-
-    def size(self) -> tuple[int, int]:
-        return self._size
-
     def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
         index, self._index = self._index, self._index + 1
         if self.out is None or not (self.every_frame or last):
             return
         target = self.out.with_name(self.out.name % index) if self.every_frame else self.out
         write_png(target, app.renderer.read_rgb())
+
+
+class Tee(OffscreenBackend):
+    """Every frame to several offscreen backends at once (images and a video)."""
+
+    def __init__(self, *backends: OffscreenBackend) -> None:
+        self.backends = backends
+        self._size = backends[0].size()
+
+    def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
+        for backend in self.backends:
+            backend.present(app, output, last)

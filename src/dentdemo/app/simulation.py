@@ -20,13 +20,14 @@ from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_heigh
 from dentdemo.gl.context import GLContext
 from dentdemo.mesh import primitives
 from dentdemo.mesh.mesh import Mesh
-from dentdemo.mesh.shapes import shape_mesh
+from dentdemo.mesh.shapes import coarser_levels, shape_mesh
 from dentdemo.model.impulse import dent_depth
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
 from dentdemo.model.shapes import Plane, Plate, Sphere
 from dentdemo.physics.simulate import build_world
 from dentdemo.physics.world import Impact, PhysicsWorld, quat_to_matrix
+from dentdemo.render.frame import MeshLevel
 
 #: How many recent carve points the contact debug view keeps.
 CARVED_POINTS_KEPT = 1024
@@ -45,6 +46,8 @@ class SimBody:
     under: GpuMesh | None = None
     #: The mesh file's own base-colour image on the GPU, if it brought one.
     texture: moderngl.Texture | None = None
+    #: Coarser render meshes of a curved body (render/frame.py MeshLevel), finest first.
+    coarser: tuple[MeshLevel, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -139,7 +142,11 @@ class Simulation:
         texture = None
         if mesh.base_colour_image is not None:
             texture = _upload_image(self.gl, mesh.base_colour_image)
-        body = SimBody(spec, mesh, gpu, maps, under, texture)
+        coarser = tuple(
+            MeshLevel(GpuMesh(self.gl, level.mesh), level.error)
+            for level in coarser_levels(spec.shape)
+        )
+        body = SimBody(spec, mesh, gpu, maps, under, texture, coarser)
         self.bodies[spec.id] = body
         return body
 
@@ -318,6 +325,8 @@ def _release_body(body: SimBody) -> None:
         body.under.release()
     if body.texture is not None:
         body.texture.release()
+    for level in body.coarser:
+        level.mesh.release()
 
 
 def _upload_image(gl: GLContext, image: NDArray[np.uint8]) -> moderngl.Texture:

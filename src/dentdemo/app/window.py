@@ -228,13 +228,16 @@ class DemoWindow:
         w, h = self.glfw.get_framebuffer_size(self.window)
         return (int(w), int(h))
 
+    def target(self) -> moderngl.Framebuffer:
+        """The renderer draws straight into the window (no copy of the frame)."""
+        return self.gl.ctx.screen
+
     def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
-        """The scene, then the panel over it; swapped to the screen (or saved, on the last frame
-        of an --exit-after run)."""
+        """The panel over the scene the renderer drew into the screen; swapped (or saved, on
+        the last frame of an --exit-after run)."""
         glfw, imgui, ctx = self.glfw, self.imgui, self.gl.ctx
         now = time.perf_counter()
         wall, self._presented = now - self._presented, now
-        ctx.copy_framebuffer(ctx.screen, output)
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
         imgui.new_frame()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import moderngl
@@ -57,6 +58,11 @@ class GpuMesh:
         self._subsets: dict[str, moderngl.Buffer] = {}
         self._held: dict[str, np.ndarray] = {}
         self._ctx = ctx
+
+    @cached_property
+    def radius(self) -> float:
+        """Distance of the farthest vertex from the local origin, metres (a bounding sphere)."""
+        return float(np.linalg.norm(self.mesh.positions, axis=1).max())
 
     _LAYOUT = "3f 3f 2f 4f 2f"
     _NAMES = ("in_position", "in_normal", "in_uv", "in_tangent", "in_texture_uv")

@@ -11,6 +11,8 @@ import pyrr
 from numpy.typing import NDArray
 
 Mat4 = NDArray[np.float64]
+#: The view's near and far planes, metres from the eye.
+NEAR, FAR = 0.02, 50.0
 
 
 def look_at(eye: NDArray, target: NDArray, up: NDArray = (0.0, 1.0, 0.0)) -> Mat4:
@@ -71,7 +73,7 @@ class OrbitCamera:
         return look_at(self.eye, self.target)
 
     def projection(self, aspect: float) -> Mat4:
-        return perspective(self.fov_deg, aspect, 0.02, 50.0)
+        return perspective(self.fov_deg, aspect, NEAR, FAR)
 
     def view_proj(self, aspect: float) -> Mat4:
         return self.projection(aspect) @ self.view()

@@ -31,6 +31,15 @@ class RenderOptions:
 
 
 @dataclass(frozen=True)
+class MeshLevel:
+    """A coarser render mesh of a DrawItem's surface, with the same texture addresses."""
+
+    mesh: GpuMesh
+    #: Largest distance between its triangles and the true surface, metres.
+    error: float
+
+
+@dataclass(frozen=True)
 class DrawItem:
     """A mesh at a pose (world from local, metres), shaded with `look` and its maps (None:
     flat)."""
@@ -41,6 +50,9 @@ class DrawItem:
     maps: SurfaceMaps | None = None
     #: The mesh's own base-colour image (it replaces the look's base colour), or None.
     texture: moderngl.Texture | None = None
+    #: Coarser meshes of the same surface, finest first: each pass draws the coarsest whose
+    #: error stays under half a pixel of that pass.
+    coarser: tuple[MeshLevel, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -10,14 +10,18 @@ from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.shaders import program
 from dentdemo.gl.shaders import set_uniform as _set
 from dentdemo.mesh import primitives
-from dentdemo.render.camera import look_at, orthographic
+from dentdemo.render.camera import NEAR, look_at, orthographic
 from dentdemo.render.environment import LEVELS, environment
-from dentdemo.render.frame import FrameDescription, Inset, RenderOptions
+from dentdemo.render.frame import DrawItem, FrameDescription, Inset, RenderOptions
 from dentdemo.render.legend import legend_texture
 from dentdemo.render.looks import GROUND, surface_code
 from dentdemo.render.quality import Quality, preset
 
 GROUND_SIDE = 12.0  # m
+#: Half the side of the square the sun's shadow map covers, around the camera target, m.
+LIGHT_HALF_EXTENT = 2.5
+#: A coarser mesh is drawn where its chord error stays under this many pixels of the pass.
+LEVEL_PIXELS = 0.5
 #: Scene-referred scale before the tone curve.
 EXPOSURE = 1.0
 
@@ -38,14 +42,19 @@ class Renderer:
         scale = self.quality.render_scale
         #: Pixels shaded: the output size times the preset's render scale.
         self.shade_size = (max(16, round(size[0] * scale)), max(16, round(size[1] * scale)))
-        self._msaa_colour = ctx.renderbuffer(self.shade_size, 4, samples=samples)
-        self._msaa_depth = ctx.depth_renderbuffer(self.shade_size, samples=samples)
-        self.msaa = ctx.framebuffer([self._msaa_colour], self._msaa_depth)
-        self.output_texture = ctx.texture(size, 4)
-        self.output = ctx.framebuffer([self.output_texture])
+        #: The shaded frame at shade_size, bilinear for the upscale to the output.
         self._resolved = ctx.texture(self.shade_size, 4)
         self._resolved.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self._resolved_fbo = ctx.framebuffer([self._resolved])
+        self._msaa_depth = ctx.depth_renderbuffer(self.shade_size, samples=samples)
+        #: Where the scene is shaded: multisampled colour (resolved afterwards), or without
+        #: multisampling the resolved texture itself (no copy).
+        self._msaa_colour = (
+            ctx.renderbuffer(self.shade_size, 4, samples=samples) if samples else self._resolved
+        )
+        self.msaa = ctx.framebuffer([self._msaa_colour], self._msaa_depth)
+        self.output_texture = ctx.texture(size, 4)
+        self.output = ctx.framebuffer([self.output_texture])
         self._upscale = program(gl.cache, ctx, "util/fullscreen.vert", "render/upscale.frag")
         self._empty_upscale = ctx.vertex_array(self._upscale, [])
         self.shadow_texture = ctx.depth_texture((shadow_size, shadow_size))
@@ -53,7 +62,9 @@ class Renderer:
         self.shadow_texture.compare_func = "<="  # hardware comparison: bilinear PCF per tap
         self.shadow = ctx.framebuffer(depth_attachment=self.shadow_texture)
         self._depth = program(gl.cache, ctx, "render/shadow.vert", "render/shadow.frag")
-        self._sky = program(gl.cache, ctx, "util/fullscreen.vert", "render/sky.frag")
+        self._sky = program(
+            gl.cache, ctx, "util/fullscreen.vert", "render/sky.frag", defines={"AT_FAR_PLANE": 1}
+        )
         self._lines = program(gl.cache, ctx, "render/lines.vert", "render/lines.frag")
         self._overlay = program(gl.cache, ctx, "util/rect.vert", "render/overlay.frag")
         self._empty_sky = ctx.vertex_array(self._sky, [])
@@ -86,9 +97,13 @@ class Renderer:
         return self.size[0] / self.size[1]
 
     # -- frame ---------------------------------------------------------------------------------
-    def render(self, description: FrameDescription) -> moderngl.Framebuffer:
-        """Draw one frame; the result is in `self.output` (and `self.output_texture`)."""
+    def render(
+        self, description: FrameDescription, target: moderngl.Framebuffer | None = None
+    ) -> moderngl.Framebuffer:
+        """Draw one frame into `target` (an output-sized framebuffer, such as a window's) or, by
+        default, into `self.output` (and `self.output_texture`); returns where it went."""
         ctx = self.gl.ctx
+        target = target or self.output
         camera, light, options = description.camera, description.light, description.options
         view_proj = camera.view_proj(self.aspect)
         light_dir = np.asarray(light.direction, float)
@@ -102,16 +117,14 @@ class Renderer:
             "u_light_colour": tuple(np.asarray(light.colour) * light.intensity),
             "u_ambient": light.ambient,
         }
-        draws = [
-            (item.mesh, item.model, item.maps, item.look, False, item.texture)
-            for item in description.items
-        ]
+        items = list(description.items)
+        ground = None
         if description.ground_y is not None:
-            ground = np.eye(4)
-            ground[1, 3] = description.ground_y
-            draws.append((self._ground, ground, None, GROUND, True, None))
+            model = np.eye(4)
+            model[1, 3] = description.ground_y
+            ground = DrawItem(self._ground, model, GROUND)
         env = environment(self.gl, tuple(light_dir))
-        # Shadow pass.
+        # Shadow pass (the ground only receives shadows: nothing lies under it).
         self.shadow.use()
         ctx.viewport = (0, 0, *self.shadow_texture.size)
         self.shadow.clear(depth=1.0)
@@ -120,25 +133,14 @@ class Renderer:
         ctx.depth_func = "<"
         if options.shadows:
             _uniforms(self._depth, frame)
-            for gpu, model, _, _, ground, _ in draws:
-                if ground:
-                    continue  # the ground only receives shadows: nothing lies under it
-                _matrix(self._depth, "u_model", model)
-                gpu.vao(self._depth).render(moderngl.TRIANGLES)
-        # Sky.
+            shadow_texel = 2.0 * LIGHT_HALF_EXTENT / self.shadow_texture.size[0]  # m
+            for item in items:
+                _matrix(self._depth, "u_model", item.model)
+                _level(item, shadow_texel).vao(self._depth).render(moderngl.TRIANGLES)
+        # Bodies.
         self.msaa.use()
         ctx.viewport = (0, 0, *self.shade_size)
         self.msaa.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
-        ctx.disable(moderngl.DEPTH_TEST)
-        _matrix(self._sky, "u_inverse_view_proj", np.linalg.inv(view_proj))
-        _set(self._sky, "u_viewport", self.shade_size)
-        _set(self._sky, "u_exposure", EXPOSURE)
-        _set(self._sky, "u_ambient", light.ambient)
-        _set(self._sky, "u_levels", LEVELS)
-        _set(self._sky, "u_radiance", 3)
-        env.radiance.use(3)
-        self._empty_sky.render(moderngl.TRIANGLES, vertices=3)
-        # Bodies.
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.cull_face = "back"
         ctx.wireframe = options.wireframe
@@ -159,60 +161,84 @@ class Renderer:
             ("u_legend_depth", options.legend_depth),
         ):
             _set(prog, name, value)
-        for gpu, model, maps, appearance, checker, texture in draws:
-            _set(prog, "u_textured", texture is not None)
-            if texture is not None:
-                texture.use(5)
-            _set(prog, "u_base_colour", appearance.base_colour)
-            _set(prog, "u_metalness", appearance.metalness)
-            _set(prog, "u_roughness", appearance.roughness)
-            _set(prog, "u_surface", surface_code(appearance))
-            _set(prog, "u_checker", checker)
-            _matrix(prog, "u_model", model)
-            normal_matrix = np.linalg.inv(model[:3, :3]).T
-            _matrix3(prog, "u_normal_matrix", normal_matrix)
-            if maps is not None:
-                maps.normal.use(0)
-                maps.height.use(1)
-                w, h = maps.size
-                _set(
-                    prog,
-                    "u_uv_per_metre",
-                    (1.0 / (maps.texel_metres[0] * w), 1.0 / (maps.texel_metres[1] * h)),
-                )
-                _set(prog, "u_max_depth", maps.max_dent_depth)
-            else:
-                self._flat_normal.use(0)
-                self._flat_height.use(1)
-                _set(prog, "u_max_depth", 0.0)
-            gpu.vao(prog).render(moderngl.TRIANGLES)
+        pixel_at_metre = 2.0 * np.tan(np.radians(camera.fov_deg) / 2) / self.shade_size[1]
+        for item in [*items, ground] if ground is not None else items:
+            self._draw_lit(prog, item, checker=item is ground)
+            distance = max(
+                float(np.linalg.norm(item.model[:3, 3] - camera.eye)) - item.mesh.radius, NEAR
+            )
+            _level(item, pixel_at_metre * distance).vao(prog).render(moderngl.TRIANGLES)
         ctx.wireframe = False
+        # Sky: last, at the far plane, so that only the pixels no body covers run its shader.
+        ctx.disable(moderngl.CULL_FACE)
+        ctx.depth_func = "<="
+        ctx.depth_mask = False
+        _matrix(self._sky, "u_inverse_view_proj", np.linalg.inv(view_proj))
+        _set(self._sky, "u_viewport", self.shade_size)
+        _set(self._sky, "u_exposure", EXPOSURE)
+        _set(self._sky, "u_ambient", light.ambient)
+        _set(self._sky, "u_levels", LEVELS)
+        _set(self._sky, "u_radiance", 3)
+        env.radiance.use(3)
+        self._empty_sky.render(moderngl.TRIANGLES, vertices=3)
+        ctx.depth_mask = True
+        ctx.depth_func = "<"
         if options.contacts and len(description.lines):
             self._draw_lines(description.lines, frame)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         if self.shade_size == self.size:
-            ctx.copy_framebuffer(self.output, self.msaa)  # the MSAA resolve
+            ctx.copy_framebuffer(target, self.msaa)  # the MSAA resolve
         else:
-            ctx.copy_framebuffer(self._resolved_fbo, self.msaa)
-            self.output.use()
+            if self._msaa_colour is not self._resolved:
+                ctx.copy_framebuffer(self._resolved_fbo, self.msaa)  # the MSAA resolve
+            target.use()
             ctx.viewport = (0, 0, *self.size)
             self._resolved.use(0)
             _set(self._upscale, "u_frame", 0)
             _set(self._upscale, "u_viewport", self.size)
             self._empty_upscale.render(moderngl.TRIANGLES, vertices=3)
-        self.output.use()
+        target.use()
         ctx.viewport = (0, 0, *self.size)
         if options.address_map and description.inset is not None:
             self._draw_inset(description.inset)
         if options.view in (1, 2):
             self._draw_legend(options.view, options.legend_depth)
-        return self.output
+        return target
+
+    def _draw_lit(self, prog: moderngl.Program, item: DrawItem, checker: bool) -> None:
+        """Set the body shader's per-item uniforms and maps."""
+        texture, appearance, maps, model = item.texture, item.look, item.maps, item.model
+        _set(prog, "u_textured", texture is not None)
+        if texture is not None:
+            texture.use(5)
+        _set(prog, "u_base_colour", appearance.base_colour)
+        _set(prog, "u_metalness", appearance.metalness)
+        _set(prog, "u_roughness", appearance.roughness)
+        _set(prog, "u_surface", surface_code(appearance))
+        _set(prog, "u_checker", checker)
+        _matrix(prog, "u_model", model)
+        normal_matrix = np.linalg.inv(model[:3, :3]).T
+        _matrix3(prog, "u_normal_matrix", normal_matrix)
+        if maps is not None:
+            maps.normal.use(0)
+            maps.height.use(1)
+            w, h = maps.size
+            _set(
+                prog,
+                "u_uv_per_metre",
+                (1.0 / (maps.texel_metres[0] * w), 1.0 / (maps.texel_metres[1] * h)),
+            )
+            _set(prog, "u_max_depth", maps.max_dent_depth)
+        else:
+            self._flat_normal.use(0)
+            self._flat_height.use(1)
+            _set(prog, "u_max_depth", 0.0)
 
     def _light_matrix(self, centre: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        radius = 2.5
         eye = centre - direction * 6.0
         up = (0.0, 0.0, 1.0) if abs(direction[1]) > 0.99 else (0.0, 1.0, 0.0)
-        return orthographic(radius, radius, 0.1, 14.0) @ look_at(eye, centre, up)
+        half = LIGHT_HALF_EXTENT
+        return orthographic(half, half, 0.1, 14.0) @ look_at(eye, centre, up)
 
     def _draw_lines(self, lines: np.ndarray, frame: dict) -> None:
         data = np.ascontiguousarray(lines, "f4").ravel()[: self._line_vbo.size // 4]
@@ -265,7 +291,7 @@ class Renderer:
             self.msaa,
             self.output,
             self.shadow,
-            self._msaa_colour,
+            self._msaa_colour,  # the resolved texture itself without MSAA (released once)
             self._msaa_depth,
             self.output_texture,
             self.shadow_texture,
@@ -273,6 +299,17 @@ class Renderer:
             self._flat_height,
         )
         self._ground.release()
+
+
+def _level(item: DrawItem, metres_per_pixel: float) -> GpuMesh:
+    """The coarsest mesh of `item` whose chord error stays under LEVEL_PIXELS pixels of
+    `metres_per_pixel` (the pass's pixel footprint at the body)."""
+    mesh = item.mesh
+    for level in item.coarser:  # finest first
+        if level.error > LEVEL_PIXELS * metres_per_pixel:
+            break
+        mesh = level.mesh
+    return mesh
 
 
 def _matrix(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
