@@ -205,7 +205,7 @@ def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):
 _WINDOW_FRAMEBUFFER = """
 import ctypes, json, sys
 from dentdemo.app.window import DemoWindow
-from dentdemo.gl.state import _gl
+from dentdemo.gl.library import gl_library as _gl
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
 lib = load_materials()

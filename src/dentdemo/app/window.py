@@ -17,6 +17,7 @@ import moderngl
 from dentdemo.app.controller import DemoController
 from dentdemo.app.loop import FrameLoop
 from dentdemo.gl.context import GLContext, create_window
+from dentdemo.gl.library import flush
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import Scene
 
@@ -238,6 +239,7 @@ class DemoWindow:
         glfw, imgui, ctx = self.glfw, self.imgui, self.gl.ctx
         now = time.perf_counter()
         wall, self._presented = now - self._presented, now
+        flush()  # the rasteriser finishes the frame while the panel is built
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
         imgui.new_frame()

@@ -6,15 +6,14 @@ rather than moderngl's bookkeeping, so state the host set by any means is kept."
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from functools import cache
 
 import moderngl
 
 from dentdemo.gl.context import parking_framebuffer
+from dentdemo.gl.library import gl_library as _gl
 
 # Capabilities a pass or a host may switch (glEnable / glDisable).
 CAPABILITIES = {
@@ -61,21 +60,6 @@ _TEXTURE0 = 0x84C0
 _TEXTURE_BINDING_2D = 0x8069
 _TEXTURE_2D = 0x0DE1
 _FRONT_AND_BACK = 0x0408
-
-
-@cache
-def _gl() -> ctypes.CDLL:
-    """The GL entry points of the current context (glvnd's libOpenGL, else libGL)."""
-    for name in ("libOpenGL.so.0", "libGL.so.1", ctypes.util.find_library("GL")):
-        if name:
-            try:
-                gl = ctypes.CDLL(name)
-            except OSError:
-                continue
-            for query in ("Enabled", "Framebuffer", "Program", "VertexArray", "Buffer", "Texture"):
-                getattr(gl, f"glIs{query}").restype = ctypes.c_ubyte  # GLboolean
-            return gl
-    raise OSError("no OpenGL library (libOpenGL.so.0 or libGL.so.1) to read the GL state")
 
 
 @dataclass(frozen=True)
