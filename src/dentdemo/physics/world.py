@@ -148,6 +148,10 @@ class PhysicsWorld:
             self._contacts_addr + i * ctypes.sizeof(ode.dContact) for i in range(MAX_CONTACTS)
         ]
         self._geom_offset = ode.dContact.geom.offset
+        for contact in self._contacts:  # what every contact shares; collide fills only .geom
+            contact.surface.mode = _CONTACT_MODE
+            contact.surface.bounce_vel = spec.impact_speed_min
+            contact.surface.soft_cfm = CONTACT_CFM
         self._callback = fast.near_callback_type(self._near)
         self._world_addr = _addr(self.world)
         self._group_addr = _addr(self.contact_group)
@@ -333,16 +337,12 @@ class PhysicsWorld:
             surface = (math.sqrt(m1.friction * m2.friction), min(m1.restitution, m2.restitution))
             self._pair_surface[key] = surface
         mu, bounce = surface
-        mode = _CONTACT_MODE
         deepest, best = 0, -math.inf
         for i in range(count):
             c = contacts[i]
-            s = c.surface
-            s.mode = mode
+            s = c.surface  # mode, bounce_vel and soft_cfm are set once (__init__)
             s.mu = mu
             s.bounce = bounce
-            s.bounce_vel = self.spec.impact_speed_min
-            s.soft_cfm = CONTACT_CFM
             depth = c.geom.depth
             if depth > best:
                 deepest, best = i, depth
