@@ -115,7 +115,10 @@ float smith_visibility(float nv, float nl, float roughness) {
     float k = (roughness + 1.0) * (roughness + 1.0) / 8.0;
     return 0.25 / ((nv * (1.0 - k) + k) * (nl * (1.0 - k) + k));
 }
-vec3 fresnel(float cos_theta, vec3 f0) { return f0 + (1.0 - f0) * pow(1.0 - cos_theta, 5.0); }
+vec3 fresnel(float cos_theta, vec3 f0) {
+    float m = 1.0 - cos_theta, m2 = m * m;  // (1 - cos)^5 by products: pow() is exp2(log2()),
+    return f0 + (1.0 - f0) * (m2 * m2 * m);  // which a software rasteriser pays for per pixel
+}
 
 // The split-sum environment BRDF, analytic fit (B. Karis, "Physically based shading on mobile").
 vec2 env_brdf(float nv, float roughness) {
