@@ -682,6 +682,13 @@ def env_cases() -> list[Case]:
             reject=("GLX", "DISPLAY"),
         ),
         Case(
+            "env-bench_window_without_display",
+            "env",
+            ["bench", "--tiny", "--window"],
+            env={"DISPLAY": None, "WAYLAND_DISPLAY": None},
+            reject=("--window", "DISPLAY"),
+        ),
+        Case(
             "env-glx_bad_display",
             "env",
             info,

@@ -50,6 +50,33 @@ def test_bench_tiny_json_schema(tmp_path):
     assert "GPU ms/hit" in result.stdout and data["machine"]["renderer"] in result.stdout
 
 
+def test_bench_window_measures_the_real_window(xvfb, tmp_path):
+    """`bench --window` runs the interactive window (wall-clock stepping, panel on) per preset
+    and body count: one row each, at the window's own 1280 x 720 framebuffer, the body count
+    the scene file and the drop give, and frame statistics that agree with each other."""
+    import os
+
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+    from dentdemo.resources import assets_dir
+
+    out = tmp_path / "bench.json"
+    env = {**os.environ, "DISPLAY": xvfb}
+    result = dentdemo("bench", "--tiny", "--window", "--json", str(out), env=env, timeout=600)
+    assert result.returncode == 0, result.stderr
+    rows = json.loads(out.read_text())["window"]
+    scene = load_scene(assets_dir() / "scenes" / "ball_drop.toml", load_materials())
+    expected_bodies = max(8, len(scene.bodies))  # tiny mode drops balls up to 8 bodies
+    assert [(r["quality"], r["bodies"]) for r in rows] == [("low", expected_bodies)]
+    row = rows[0]
+    assert row["size"] == [1280, 720] and row["frames"] == 10
+    assert 0 < row["frame_ms_median"] <= row["frame_ms_p90"]
+    # The mean frame (1000 / fps) lies between the fastest and the slowest: within a factor
+    # of the median that a 10-frame run can stray by.
+    assert row["frame_ms_median"] / 4 < 1000.0 / row["fps"] < row["frame_ms_p90"] * 4
+    assert "real window 1280x720" in result.stdout
+
+
 @pytest.mark.parametrize("offset,depth", [((0.0, 0.0), 0.01), ((0.21, -0.13), 0.004)])
 def test_cpu_reference_matches_the_gpu_path(gl, offset, depth):
     carver = Carver(gl)

@@ -62,6 +62,17 @@ def print_table(r: dict) -> None:
             f"{f['bodies']:>6} {f['frame_ms']:9.1f} {f['physics_ms']:8.1f} "
             f"{f['carve_ms']:7.1f} {f['render_ms']:7.1f}"
         )
+    if r.get("window"):
+        size = "x".join(str(v) for v in r["window"][0]["size"])
+        print(
+            f"{'window':>8} {'bodies':>6} {'fps':>6} {'median ms':>10} {'p90 ms':>7}"
+            f"  (real window {size}, wall clock, panel on)"
+        )
+        for w in r["window"]:
+            print(
+                f"{w['quality']:>8} {w['bodies']:>6} {w['fps']:6.1f} "
+                f"{w['frame_ms_median']:10.1f} {w['frame_ms_p90']:7.1f}"
+            )
     mem = r["memory"]
     print(
         f"maps: {mem['bytes_per_texel']} bytes/texel ({mem['layout']}); 1024² = "

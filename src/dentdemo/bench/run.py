@@ -34,6 +34,7 @@ MODES = {
         "frames": 4,
         "cpu_sizes": [128, 256],
         "same_dent": [(0.25, 128), (0.5, 256)],
+        "window": {"presets": ["low"], "bodies": [8], "frames": 10},
     },
     "quick": {
         "sizes": [256, 1024, 4096],
@@ -42,6 +43,7 @@ MODES = {
         "frames": 20,
         "cpu_sizes": [256, 1024, 4096],
         "same_dent": SAME_DENT,
+        "window": {"presets": ["low", "medium", "high"], "bodies": [20, 100], "frames": 120},
     },
     "full": {
         "sizes": [256, 512, 1024, 2048, 4096],
@@ -50,6 +52,7 @@ MODES = {
         "frames": 60,
         "cpu_sizes": [256, 512, 1024, 2048, 4096],
         "same_dent": SAME_DENT,
+        "window": {"presets": ["low", "medium", "high"], "bodies": [20, 100], "frames": 240},
     },
 }
 
@@ -155,6 +158,30 @@ def per_hit(
     return rows, passes, agreement
 
 
+def drop_balls(app, count: int) -> None:  # noqa: ANN001 - a DemoController
+    """Balls of seeded random size and material dropped over ball_drop's plates until the scene
+    has `count` bodies: the sandbox load every frame measurement uses."""
+    rng = np.random.default_rng(count)
+    names = ["steel", "brass", "copper", "lead", "clay", "rubber", "aluminium"]
+    for i in range(max(0, count - len(app.sim.bodies))):
+        pos = (rng.uniform(-0.5, 0.5), rng.uniform(0.15, 1.5), rng.uniform(-0.5, 0.5))
+        app.sim.drop_ball(
+            pos,
+            material=names[i % len(names)],
+            radius=float(rng.uniform(0.015, 0.04)),
+            texels_per_metre=512,
+        )
+
+
+def _ball_drop():
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+    from dentdemo.resources import assets_dir
+
+    materials = load_materials()
+    return load_scene(assets_dir() / "scenes" / "ball_drop.toml", materials), materials
+
+
 def frame_times(
     gl: GLContext,
     body_counts: list[int],
@@ -166,25 +193,12 @@ def frame_times(
     bodies dropped on plates; each phase ends with glFinish so that its time is its own."""
     from dentdemo.app.controller import DemoController
     from dentdemo.app.loop import FrameLoop, ImageBackend
-    from dentdemo.model.materials import load_materials
-    from dentdemo.model.scene import load_scene
-    from dentdemo.resources import assets_dir
 
-    materials = load_materials()
-    scene = load_scene(assets_dir() / "scenes" / "ball_drop.toml", materials)
+    scene, materials = _ball_drop()
     out = []
     for count in body_counts:
         app = DemoController(gl, scene, materials, size)
-        rng = np.random.default_rng(count)
-        names = ["steel", "brass", "copper", "lead", "clay", "rubber", "aluminium"]
-        for i in range(max(0, count - len(app.sim.bodies))):
-            pos = (rng.uniform(-0.5, 0.5), rng.uniform(0.15, 1.5), rng.uniform(-0.5, 0.5))
-            app.sim.drop_ball(
-                pos,
-                material=names[i % len(names)],
-                radius=float(rng.uniform(0.015, 0.04)),
-                texels_per_metre=512,
-            )
+        drop_balls(app, count)
         loop = FrameLoop(app, ImageBackend(size, None), fixed_dt=True)
         timings = [loop.frame(measure=True) for _ in range(frames)]
         physics = [t.physics_ms for t in timings]
@@ -208,6 +222,57 @@ def frame_times(
     return out
 
 
+#: Frames the window runs before its frames are timed (shader compiles, first carves).
+WINDOW_WARMUP = 10
+
+
+def window_frames(
+    presets: list[str],
+    body_counts: list[int],
+    frames: int,
+    size=(1280, 720),
+    tick: Callable[[], object] = lambda: None,
+) -> list[dict]:
+    """The interactive demo as a person runs it: a real window with its panel, the simulation
+    stepped by wall time, no glFinish between phases. Frames per wall-clock second by preset and
+    body count, over `frames` frames after WINDOW_WARMUP."""
+    from dentdemo.app.loop import FrameLoop
+    from dentdemo.app.window import DemoWindow
+
+    scene, materials = _ball_drop()
+    out = []
+    for quality in presets:
+        for count in body_counts:
+            window = DemoWindow(scene, materials, size, quality)
+            try:
+                drop_balls(window.app, count)
+                window._screenshot_at_end = None
+                loop = FrameLoop(window.app, window, fixed_dt=False)
+                for _ in range(WINDOW_WARMUP):
+                    loop.frame()
+                stamps = [time.perf_counter()]
+                for _ in range(frames):
+                    loop.frame()
+                    stamps.append(time.perf_counter())
+                ms = np.diff(stamps) * 1e3
+                out.append(
+                    {
+                        "quality": quality,
+                        "bodies": len(window.app.sim.bodies),
+                        "frames": frames,
+                        "size": list(window.size()),
+                        "fps": frames / (stamps[-1] - stamps[0]),
+                        "frame_ms_median": float(np.median(ms)),
+                        "frame_ms_p90": float(np.percentile(ms, 90)),
+                        "renderer": window.gl.renderer,
+                    }
+                )
+            finally:
+                window.close()
+            tick()
+    return out
+
+
 def memory(gl: GLContext) -> dict:
     from dentdemo.carve.surface import BYTES_PER_TEXEL
 
@@ -221,13 +286,24 @@ def memory(gl: GLContext) -> dict:
     }
 
 
-def run_bench(mode: str) -> dict:
+def run_bench(mode: str, window: bool = False) -> dict:
+    """The bench in `mode`; with `window`, the interactive window's frame rates too (a display
+    is needed: the caller checks)."""
     cfg = MODES[mode]
+    win = cfg["window"]
+    stages = len(cfg["sizes"]) + 1 + len(cfg["bodies"])
+    if window:
+        stages += len(win["presets"]) * len(win["bodies"])
+    start = time.perf_counter()
+    bar = progress_bar(stages, "stages")
+    tick = bar.update if bar is not None else (lambda: None)
+    # The window first: a GLX window context cannot be made current in a process that holds an
+    # EGL context (X_GLXMakeCurrent: BadAccess), while the reverse order works.
+    windows = None
+    if window:
+        windows = window_frames(win["presets"], win["bodies"], win["frames"], tick=tick)
     gl = create_headless()
     try:
-        start = time.perf_counter()
-        bar = progress_bar(len(cfg["sizes"]) + 1 + len(cfg["bodies"]), "stages")
-        tick = bar.update if bar is not None else (lambda: None)
         rows, passes, agreement = per_hit(gl, cfg["sizes"], cfg["cpu_sizes"], cfg["reps"], tick)
         same = same_dent(gl, cfg["same_dent"], cfg["reps"])
         tick()
@@ -250,6 +326,7 @@ def run_bench(mode: str) -> dict:
             "same_dent": same,
             "passes": passes,
             "frames": frames,
+            "window": windows,
             "memory": memory(gl),
             "agreement": agreement,
             "seconds": time.perf_counter() - start,

@@ -4,9 +4,11 @@ times against scene size, and the memory of the maps."""
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from dentdemo.cli.args import command
+from dentdemo.errors import DentdemoError
 from dentdemo.outputs import check_output_file, write_json
 
 
@@ -14,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = command(
         sub,
         "bench",
-        "measure per-hit cost, both update paths, frame times, memory",
+        "measure per-hit cost, both update paths, frame times (and the window's fps), memory",
         "dentdemo bench --quick --json bench.json --plot bench.png",
     )
     p.add_argument(
@@ -23,6 +25,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # the test suite's mode
     p.add_argument("--json", metavar="FILE", help="write the results as JSON")
     p.add_argument("--plot", metavar="PNG", help="plot cost per hit against map size")
+    p.add_argument(
+        "--window",
+        action="store_true",
+        help="also run the interactive window (a display is needed, Xvfb will do) and report its "
+        "frames per second by quality preset and body count",
+    )
     p.set_defaults(handler=run)
 
 
@@ -32,8 +40,10 @@ def run(args: argparse.Namespace) -> int:
 
     json_path = check_output_file("--json", Path(args.json)) if args.json else None
     plot_path = check_output_file("--plot", Path(args.plot)) if args.plot else None
+    if args.window and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise DentdemoError("--window: no display (DISPLAY is not set); run it under X or Xvfb")
     mode = "tiny" if args.tiny else ("quick" if args.quick else "full")
-    result = run_bench(mode)
+    result = run_bench(mode, window=args.window)
     print_table(result)
     if json_path is not None:
         write_json(json_path, result)
