@@ -281,3 +281,25 @@ def test_close_up_frames_the_last_hit(gl):
         assert depth == max(request.depth_a, request.depth_b) > 0
     finally:
         app.close()
+
+
+def test_quality_switches_while_the_scene_runs(gl):
+    """The panel's "quality": the renderer is rebuilt at the preset's shading size (low shades
+    0.45 of each axis: 144 x 81 for 320 x 180; high all of it), the simulation is untouched, and
+    the frame still renders the scene."""
+    materials = load_materials()
+    app = DemoController(gl, load_scene(BALL_DROP, materials), materials, (320, 180), quality="low")
+    try:
+        for _ in range(5):
+            app.sim.step()
+        time_before, bodies = app.sim.world.time, set(app.sim.bodies)
+        assert app.renderer.shade_size == (144, 81)
+        app.set_quality("high")
+        assert app.quality.name == "high" and app.renderer.shade_size == (320, 180)
+        assert app.renderer.size == (320, 180)
+        assert app.sim.world.time == time_before and set(app.sim.bodies) == bodies
+        app.render()
+        image = app.renderer.read_rgb()
+        assert len(np.unique(image.reshape(-1, 3), axis=0)) > 200
+    finally:
+        app.close()

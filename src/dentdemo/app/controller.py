@@ -212,6 +212,14 @@ class DemoController:
         """Describe and draw the frame into `target` (default: the renderer's output)."""
         return self.renderer.render(describe(self.sim, self.camera, self.options), target)
 
+    def set_quality(self, name: str) -> None:
+        """Switch the render quality preset (panel "quality"); the scene is left as it is."""
+        if name != self.quality.name:
+            self.quality = preset(name, self.gl.software)
+            size = self.renderer.size
+            self.renderer.release()
+            self.renderer = Renderer(self.gl, size, self.quality)
+
     def resize(self, size: tuple[int, int]) -> None:
         if size != self.renderer.size and min(size) > 0:
             self.renderer.release()

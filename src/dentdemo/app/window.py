@@ -20,6 +20,7 @@ from dentdemo.gl.context import GLContext, create_window
 from dentdemo.gl.library import flush
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import Scene
+from dentdemo.render.quality import PRESETS
 
 CLICK_PIXELS = 4  # a press that moves less than this is a click, not a drag
 
@@ -181,6 +182,10 @@ class DemoWindow:
         _, app.options.view = imgui.combo(
             "view", app.options.view, ["shaded", "height map", "normal map"]
         )
+        presets = list(PRESETS)
+        changed, index = imgui.combo("quality", presets.index(app.quality.name), presets)
+        if changed:
+            app.set_quality(presets[index])
         for name in ("parallax", "wireframe", "contacts", "address_map", "shadows"):
             changed, _ = imgui.checkbox(name.replace("_", " "), getattr(app.options, name))
             if changed:

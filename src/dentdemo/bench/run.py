@@ -241,13 +241,15 @@ def window_frames(
 
     scene, materials = _ball_drop()
     out = []
-    for quality in presets:
-        for count in body_counts:
-            window = DemoWindow(scene, materials, size, quality)
-            try:
+    window = DemoWindow(scene, materials, size, presets[0])  # one window, as a person has it
+    try:
+        window._screenshot_at_end = None
+        loop = FrameLoop(window.app, window, fixed_dt=False)
+        for quality in presets:
+            window.app.set_quality(quality)  # the panel's "quality"
+            for count in body_counts:
+                window.app.reset()
                 drop_balls(window.app, count)
-                window._screenshot_at_end = None
-                loop = FrameLoop(window.app, window, fixed_dt=False)
                 for _ in range(WINDOW_WARMUP):
                     loop.frame()
                 stamps = [time.perf_counter()]
@@ -267,9 +269,9 @@ def window_frames(
                         "renderer": window.gl.renderer,
                     }
                 )
-            finally:
-                window.close()
-            tick()
+                tick()
+    finally:
+        window.close()
     return out
 
 
