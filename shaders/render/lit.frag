@@ -4,7 +4,9 @@
 // the body's rebuilt tangent-space normal map, a PCF-filtered shadow, optional parallax occlusion
 // mapping, procedural surface detail, ACES tone mapping and exact sRGB output. Debug views
 // replace the shading. Compile-time variants: PARALLAX 0/1; VIEW 0 shaded / 1 height / 2 normal;
-// SHADOW_TAPS 1 or 4 and SURFACE_DETAIL 0/1 (the quality preset).
+// SHADOW_TAPS 1 or 4 and SURFACE_DETAIL 0/1 (the quality preset); TEXTURED 0/1 (the mesh's own
+// base-colour image); GROUND 0/1 (the checkered ground: flat, facing +Y, without maps). They are
+// compile-time because a software rasteriser runs both sides of a branch on a uniform.
 #ifndef PARALLAX
 #define PARALLAX 0
 #endif
@@ -16,6 +18,12 @@
 #endif
 #ifndef SURFACE_DETAIL
 #define SURFACE_DETAIL 1
+#endif
+#ifndef TEXTURED
+#define TEXTURED 0
+#endif
+#ifndef GROUND
+#define GROUND 0
 #endif
 #include "frame.glsl"
 #include "../include/common.glsl"
@@ -34,9 +42,8 @@ uniform vec3 u_base_colour;       // linear RGB
 uniform float u_metalness;        // 0 dielectric .. 1 metal
 uniform float u_roughness;        // perceptual; GGX alpha = roughness^2
 uniform int u_surface;            // procedural detail (surface_detail.glsl)
-uniform bool u_checker;           // the ground's checker pattern
-uniform bool u_textured;          // the mesh brought its own base-colour image (it replaces u_base_colour)
-uniform sampler2D u_base_texture; // that image, sRGB bytes, row 0 at texture v = 0
+uniform sampler2D u_base_texture; // TEXTURED: the mesh's own base-colour image (it replaces
+                                  // u_base_colour), sRGB bytes, row 0 at texture v = 0
 uniform float u_exposure;         // scene-referred scale before the tone curve
 uniform vec2 u_uv_per_metre;      // texture-space length of one metre along +u and +v
 uniform float u_max_depth;        // deepest possible dent, metres (parallax search range)
@@ -130,14 +137,19 @@ vec2 env_brdf(float nv, float roughness) {
 }
 
 void main() {
-    mat3 tbn = mat3(normalize(v_tangent), normalize(v_bitangent), normalize(v_normal));
     vec3 view = normalize(u_camera_pos - v_world);
+#if GROUND
+    vec2 uv = v_uv;
+    vec3 n = vec3(0.0, 1.0, 0.0);
+#else
+    mat3 tbn = mat3(normalize(v_tangent), normalize(v_bitangent), normalize(v_normal));
 #if PARALLAX
     vec2 uv = parallax_uv(v_uv, transpose(tbn) * view);
 #else
     vec2 uv = v_uv;
 #endif
     vec3 n = normalize(tbn * decode_normal(texture(u_normal_map, uv).rgb));
+#endif
 #if VIEW != 0
     // Debug views: outlines where a body turns away from the view (silhouettes, plate edges),
     // so that touching bodies do not merge into one plane.
@@ -149,23 +161,25 @@ void main() {
 #else
     vec3 shown = texture(u_normal_map, uv).rgb;
 #endif
-    if (u_checker) {  // the ground recedes, so that bodies stand out from it
-        vec2 cell = floor(v_world.xz / 0.25);
-        shown *= mod(cell.x + cell.y, 2.0) < 0.5 ? 0.45 : 0.38;
-    }
+#if GROUND  // the ground recedes, so that bodies stand out from it
+    vec2 square = floor(v_world.xz / 0.25);
+    shown *= mod(square.x + square.y, 2.0) < 0.5 ? 0.45 : 0.38;
+#endif
     f_colour = vec4(shown * mix(0.15, 1.0, outline), 1.0);
     return;
 #endif
     vec3 base = u_base_colour;
-    if (u_textured) base = srgb_to_linear(texture(u_base_texture, v_texture_uv).rgb);
+#if TEXTURED
+    base = srgb_to_linear(texture(u_base_texture, v_texture_uv).rgb);
+#endif
     float roughness = u_roughness;
 #if SURFACE_DETAIL
     surface_detail(u_surface, uv, v_world, base, roughness);
 #endif
-    if (u_checker) {
-        vec2 cell = floor(v_world.xz / 0.25);
-        base *= mod(cell.x + cell.y, 2.0) < 0.5 ? 1.0 : 0.75;
-    }
+#if GROUND
+    vec2 cell = floor(v_world.xz / 0.25);
+    base *= mod(cell.x + cell.y, 2.0) < 0.5 ? 1.0 : 0.75;
+#endif
     roughness = clamp(roughness, 0.03, 1.0);
     float a = roughness * roughness;
     vec3 f0 = mix(vec3(0.04), base, u_metalness);
@@ -187,7 +201,12 @@ void main() {
     vec3 r = reflect(-view, n);
     vec2 ab = env_brdf(nv, roughness);
     vec3 specular_ibl = radiance(r, roughness) * (f0 * ab.x + ab.y);
-    vec3 diffuse_ibl = texture(u_irradiance, equirect_uv(n)).rgb * diffuse_colour;
+#if GROUND
+    vec3 irradiance = texture(u_irradiance, vec2(0.5, 1.0)).rgb;  // straight up: the top row
+#else
+    vec3 irradiance = texture(u_irradiance, equirect_uv(n)).rgb;
+#endif
+    vec3 diffuse_ibl = irradiance * diffuse_colour;
     colour += (specular_ibl + diffuse_ibl) * u_ambient;
     f_colour = vec4(tonemap(colour, u_exposure), 1.0);
 }

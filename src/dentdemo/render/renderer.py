@@ -80,13 +80,18 @@ class Renderer:
             self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_colour")]
         )
 
-    def _lit(self, options: RenderOptions) -> moderngl.Program:
-        """The body shader variant for these options (compile-time switches: no cost when off)."""
+    def _lit(
+        self, options: RenderOptions, textured: bool = False, ground: bool = False
+    ) -> moderngl.Program:
+        """The body shader variant for these options, for bodies with or without their own
+        base-colour image, or for the ground (compile-time switches: no cost when off)."""
         defines = {
             "PARALLAX": int(options.parallax),
             "VIEW": int(options.view),
             "SHADOW_TAPS": self.quality.shadow_taps,
             "SURFACE_DETAIL": int(self.quality.surface_detail),
+            "TEXTURED": int(textured),
+            "GROUND": int(ground),
         }
         return program(
             self.gl.cache, self.gl.ctx, "render/lit.vert", "render/lit.frag", defines=defines
@@ -144,30 +149,39 @@ class Renderer:
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.cull_face = "back"
         ctx.wireframe = options.wireframe
-        prog = self._lit(options)
-        _uniforms(prog, frame)
         self.shadow_texture.use(2)
         env.radiance.use(3)
         env.irradiance.use(4)
-        for name, value in (
-            ("u_shadow_map", 2),
-            ("u_normal_map", 0),
-            ("u_height_map", 1),
-            ("u_radiance", 3),
-            ("u_irradiance", 4),
-            ("u_levels", LEVELS),
-            ("u_exposure", EXPOSURE),
-            ("u_base_texture", 5),
-            ("u_legend_depth", options.legend_depth),
-        ):
-            _set(prog, name, value)
         pixel_at_metre = 2.0 * np.tan(np.radians(camera.fov_deg) / 2) / self.shade_size[1]
-        for item in [*items, ground] if ground is not None else items:
-            self._draw_lit(prog, item, checker=item is ground)
-            distance = max(
-                float(np.linalg.norm(item.model[:3, 3] - camera.eye)) - item.mesh.radius, NEAR
-            )
-            _level(item, pixel_at_metre * distance).vao(prog).render(moderngl.TRIANGLES)
+        plain = [item for item in items if item.texture is None]
+        textured = [item for item in items if item.texture is not None]
+        for group, prog in (
+            (plain, self._lit(options)),
+            (textured, self._lit(options, textured=True)),
+            ([ground] if ground is not None else [], self._lit(options, ground=True)),
+        ):  # the ground last: what bodies cover of it fails the depth test before shading
+            if not group:
+                continue
+            _uniforms(prog, frame)
+            for name, value in (
+                ("u_shadow_map", 2),
+                ("u_normal_map", 0),
+                ("u_height_map", 1),
+                ("u_radiance", 3),
+                ("u_irradiance", 4),
+                ("u_levels", LEVELS),
+                ("u_exposure", EXPOSURE),
+                ("u_base_texture", 5),
+                ("u_legend_depth", options.legend_depth),
+            ):
+                _set(prog, name, value)
+            for item in group:
+                self._draw_lit(prog, item)
+                distance = max(
+                    float(np.linalg.norm(item.model[:3, 3] - camera.eye)) - item.mesh.radius,
+                    NEAR,
+                )
+                _level(item, pixel_at_metre * distance).vao(prog).render(moderngl.TRIANGLES)
         ctx.wireframe = False
         # Sky: last, at the far plane, so that only the pixels no body covers run its shader.
         ctx.disable(moderngl.CULL_FACE)
@@ -205,17 +219,15 @@ class Renderer:
             self._draw_legend(options.view, options.legend_depth)
         return target
 
-    def _draw_lit(self, prog: moderngl.Program, item: DrawItem, checker: bool) -> None:
+    def _draw_lit(self, prog: moderngl.Program, item: DrawItem) -> None:
         """Set the body shader's per-item uniforms and maps."""
         texture, appearance, maps, model = item.texture, item.look, item.maps, item.model
-        _set(prog, "u_textured", texture is not None)
         if texture is not None:
             texture.use(5)
         _set(prog, "u_base_colour", appearance.base_colour)
         _set(prog, "u_metalness", appearance.metalness)
         _set(prog, "u_roughness", appearance.roughness)
         _set(prog, "u_surface", surface_code(appearance))
-        _set(prog, "u_checker", checker)
         _matrix(prog, "u_model", model)
         normal_matrix = np.linalg.inv(model[:3, :3]).T
         _matrix3(prog, "u_normal_matrix", normal_matrix)
