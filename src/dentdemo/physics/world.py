@@ -152,6 +152,12 @@ class PhysicsWorld:
             contact.surface.mode = _CONTACT_MODE
             contact.surface.bounce_vel = spec.impact_speed_min
             contact.surface.soft_cfm = CONTACT_CFM
+        # Views into the contact slots, made once: ctypes makes a new object per field access,
+        # and the near callback runs for every touching pair in every substep.
+        self._slots = [
+            (contact.surface, contact.geom, address)
+            for contact, address in zip(self._contacts, self._contact_addrs, strict=True)
+        ]
         self._callback = fast.near_callback_type(self._near)
         self._world_addr = _addr(self.world)
         self._group_addr = _addr(self.contact_group)
@@ -320,7 +326,6 @@ class PhysicsWorld:
         r2 = self._by_geom.get(g2)
         if r1 is None or r2 is None or (r1.body is None and r2.body is None):
             return
-        contacts = self._contacts
         count = fast.collide(
             g1,
             g2,
@@ -337,19 +342,17 @@ class PhysicsWorld:
             surface = (math.sqrt(m1.friction * m2.friction), min(m1.restitution, m2.restitution))
             self._pair_surface[key] = surface
         mu, bounce = surface
-        deepest, best = 0, -math.inf
-        for i in range(count):
-            c = contacts[i]
-            s = c.surface  # mode, bounce_vel and soft_cfm are set once (__init__)
-            s.mu = mu
-            s.bounce = bounce
-            depth = c.geom.depth
+        deepest, best = self._slots[0][1], -math.inf
+        world, group, body1, body2 = self._world_addr, self._group_addr, r1.body_addr, r2.body_addr
+        for surface_, geom, address in self._slots[:count]:
+            surface_.mu = mu  # mode, bounce_vel and soft_cfm are set once (__init__)
+            surface_.bounce = bounce
+            depth = geom.depth
             if depth > best:
-                deepest, best = i, depth
-            joint = fast.create_contact(self._world_addr, self._group_addr, self._contact_addrs[i])
-            fast.attach(joint, r1.body_addr, r2.body_addr)
+                deepest, best = geom, depth
+            fast.attach(fast.create_contact(world, group, address), body1, body2)
         # ODE's normal points into g1: from body A = owner of g2 towards body B = owner of g1.
-        self._record(r2, r1, contacts[deepest].geom)
+        self._record(r2, r1, deepest)
 
     def _record(self, a: _Body, b: _Body, geom: object) -> None:
         px, py, pz = geom.pos[0], geom.pos[1], geom.pos[2]
