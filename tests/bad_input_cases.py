@@ -359,7 +359,7 @@ def mesh_cases() -> list[Case]:
             "mesh",
             SIMULATE,
             {s: _mesh_scene("m.obj"), "m.obj": OBJ_TETRA},
-            accept=_one_warning("re-atlassing"),
+            accept=_one_warning("re-atlasing"),
         ),
         Case(
             "mesh-open_dynamic_mesh",
@@ -722,7 +722,7 @@ def env_cases() -> list[Case]:
             SIMULATE,
             {"s.toml": _mesh_scene("m.obj"), "m.obj": OBJ_TETRA},
             env={"PYTHONWARNINGS": "error"},
-            accept=_one_warning("re-atlassing"),
+            accept=_one_warning("re-atlasing"),
         ),
     ]
 

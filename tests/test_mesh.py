@@ -77,7 +77,7 @@ def test_loaded_mesh_without_uvs_is_reatlased(tmp_path):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         mesh = load_mesh(path)
-    assert any("re-atlassing" in str(w.message) for w in caught)
+    assert any("re-atlasing" in str(w.message) for w in caught)
     assert check_uvs(mesh.uvs, mesh.indices).ok
     assert mesh.surface_area() == pytest.approx(4 * math.pi * 0.01, rel=0.05)
 

@@ -58,7 +58,7 @@ def test_normals_agree_at_split_seam_vertices():
     assert mesh.uvs.shape == (len(mesh.positions), 2)  # the file's own UVs kept (no re-atlas)
 
 
-@pytest.mark.filterwarnings("ignore:.*re-atlassing")  # STL has no UVs: re-atlased, as it should
+@pytest.mark.filterwarnings("ignore:.*re-atlasing")  # STL has no UVs: re-atlased, as it should
 def test_stl_style_triangles_are_smooth_and_cube_edges_stay_hard(tmp_path):
     import trimesh
 

@@ -200,7 +200,7 @@ def mesh_from_triangles(
     texture_uvs = coords if base_colour_image is not None else None
     if not report.ok:
         warnings.warn(
-            f"{name}: texture coordinates are {report.describe()}; re-atlassing", stacklevel=2
+            f"{name}: texture coordinates are {report.describe()}; re-atlasing", stacklevel=2
         )
         positions, normals, new_coords, indices, kept = reatlas(
             positions, indices, normals, return_mapping=True
