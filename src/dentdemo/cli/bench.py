@@ -4,7 +4,6 @@ times against scene size, and the memory of the maps."""
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from dentdemo.cli.args import command
@@ -40,7 +39,9 @@ def run(args: argparse.Namespace) -> int:
 
     json_path = check_output_file("--json", Path(args.json)) if args.json else None
     plot_path = check_output_file("--plot", Path(args.plot)) if args.plot else None
-    if args.window and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+    from dentdemo.gl.context import has_display
+
+    if args.window and not has_display():
         raise DentdemoError("--window: no display (DISPLAY is not set); run it under X or Xvfb")
     mode = "tiny" if args.tiny else ("quick" if args.quick else "full")
     result = run_bench(mode, window=args.window)

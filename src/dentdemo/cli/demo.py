@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -53,7 +52,9 @@ def run(args: argparse.Namespace) -> int:
     materials = load_materials(args.materials)
     path = Path(args.scene)
     scene = load_scene(path, materials)
-    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+    from dentdemo.gl.context import has_display
+
+    if not has_display():
         return _headless_instead(
             args, path, scene.physics.dt, exit_after, "no display (DISPLAY is not set)"
         )

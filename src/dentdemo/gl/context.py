@@ -173,6 +173,11 @@ def create_headless(backend: str | None = None) -> GLContext:
     return _checked(GLContext(ctx=ctx, backend=name))
 
 
+def has_display() -> bool:
+    """Whether a window can be opened at all: an X (DISPLAY) or Wayland display is named."""
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
 def create_window(width: int, height: int, title: str, *, visible: bool = True) -> GLContext:
     """A glfw window with an OpenGL 3.3 core context (forward compatible, as macOS requires).
     Its framebuffer only receives finished images (the renderer does its own multisampling and
@@ -180,7 +185,7 @@ def create_window(width: int, height: int, title: str, *, visible: bool = True) 
     multisampled window made every touch of the screen, swap included, cost a resolve."""
     import glfw
 
-    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+    if not has_display():
         raise GLUnavailableError("dentdemo: no display (DISPLAY is not set); cannot open a window")
     if not glfw.init():
         raise GLUnavailableError("dentdemo: glfw could not initialise the display " + _glfw_error())
