@@ -216,14 +216,15 @@ class DemoController:
         """Switch the render quality preset (panel "quality"); the scene is left as it is."""
         if name != self.quality.name:
             self.quality = preset(name, self.gl.software)
-            size = self.renderer.size
-            self.renderer.release()
-            self.renderer = Renderer(self.gl, size, self.quality)
+            self._rebuild_renderer(self.renderer.size)
 
     def resize(self, size: tuple[int, int]) -> None:
         if size != self.renderer.size and min(size) > 0:
-            self.renderer.release()
-            self.renderer = Renderer(self.gl, size, self.quality)
+            self._rebuild_renderer(size)
+
+    def _rebuild_renderer(self, size: tuple[int, int]) -> None:
+        self.renderer.release()
+        self.renderer = Renderer(self.gl, size, self.quality)
 
     def stats_line(self, fps: float) -> str:
         s = self.sim.stats

@@ -243,7 +243,6 @@ def window_frames(
     out = []
     window = DemoWindow(scene, materials, size, presets[0])  # one window, as a person has it
     try:
-        window._screenshot_at_end = None
         loop = FrameLoop(window.app, window, fixed_dt=False)
         for quality in presets:
             window.app.set_quality(quality)  # the panel's "quality"

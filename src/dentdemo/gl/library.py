@@ -20,7 +20,7 @@ def gl_library() -> ctypes.CDLL:
             for query in ("Enabled", "Framebuffer", "Program", "VertexArray", "Buffer", "Texture"):
                 getattr(gl, f"glIs{query}").restype = ctypes.c_ubyte  # GLboolean
             return gl
-    raise OSError("no OpenGL library (libOpenGL.so.0 or libGL.so.1) to read the GL state")
+    raise OSError("no OpenGL library (libOpenGL.so.0 or libGL.so.1) to call")
 
 
 def flush() -> None:

@@ -230,7 +230,7 @@ class Renderer:
         _set(prog, "u_surface", surface_code(appearance))
         _matrix(prog, "u_model", model)
         normal_matrix = np.linalg.inv(model[:3, :3]).T
-        _matrix3(prog, "u_normal_matrix", normal_matrix)
+        _matrix(prog, "u_normal_matrix", normal_matrix)
         if maps is not None:
             maps.normal.use(0)
             maps.height.use(1)
@@ -325,11 +325,7 @@ def _level(item: DrawItem, metres_per_pixel: float) -> GpuMesh:
 
 
 def _matrix(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
-    if name in prog:
-        prog[name].write(np.asarray(m, dtype="f4").T.tobytes())
-
-
-def _matrix3(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
+    """A 4x4 or 3x3 matrix (column-vector convention) into a mat4 or mat3 uniform, if used."""
     if name in prog:
         prog[name].write(np.asarray(m, dtype="f4").T.tobytes())
 
