@@ -23,11 +23,13 @@ void main() {
     float h = texelFetch(u_height, texel_of(v_uv, size), 0).r;
     float depth = v_depth;
     vec3 n = normalize(v_normal);
-    if (u_swept) {  // a built-in sphere or capsule: its smooth surface, not the facet
+#if SWEPT  // a built-in sphere or capsule: its smooth surface, not the facet
+    {
         depth = swept_view_depth(v_world, depth, false, u_eye, u_forward);
         vec3 p = u_eye + u_forward * depth + (v_world - u_eye - u_forward * v_depth);
         swept_snap(p, n);
     }
+#endif
     float bumped = bumped_depth(depth, h, n, u_forward);
     gl_FragDepth = window_depth(bumped);
     f_address = vec4(v_uv, depth, bumped);

@@ -52,7 +52,9 @@ void main() {
     vec3 world, n;
     ivec2 source;
     if (!texel_surface(world, n, source)) discard;
-    if (u_swept) swept_snap(world, n);  // a built-in sphere or capsule: its smooth surface
+#if SWEPT
+    swept_snap(world, n);  // a built-in sphere or capsule: its smooth surface
+#endif
     float cos_view = -dot(n, u_forward);
     if (!(cos_view > 0.0)) discard;  // faces away from the camera
     vec3 rel = world - u_eye;

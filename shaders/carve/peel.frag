@@ -25,11 +25,13 @@ void main() {
     float h_tool = texelFetch(u_height, texel_of(v_uv, size), 0).r;
     float depth = v_depth;
     vec3 n = normalize(v_normal);
-    if (u_swept) {  // a built-in sphere or capsule: where the view line leaves its smooth surface
+#if SWEPT  // a built-in sphere or capsule: where the view line leaves its smooth surface
+    {
         depth = swept_view_depth(v_world, depth, true, u_eye, u_forward);
         vec3 p = u_eye + u_forward * depth + (v_world - u_eye - u_forward * v_depth);
         swept_snap(p, n);
     }
+#endif
     depth = bumped_depth(depth, h_tool, n, u_forward);
     gl_FragDepth = window_depth(depth);
     f_tool = vec2(depth, 1.0);

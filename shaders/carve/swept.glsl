@@ -1,7 +1,10 @@
 // A built-in sphere or capsule as its own smooth solid rather than its facets: a sphere of radius
 // u_swept_radius swept from u_swept_a to u_swept_b (world metres; both ends equal: a sphere).
-// u_swept false: the mesh's facets are the surface.
-uniform bool u_swept;
+// SWEPT 0 (a compile-time variant, not a uniform branch: llvmpipe runs both sides of every branch):
+// the mesh's facets are the surface.
+#ifndef SWEPT
+#define SWEPT 0
+#endif
 uniform vec3 u_swept_a;
 uniform vec3 u_swept_b;
 uniform float u_swept_radius;

@@ -104,19 +104,25 @@ class Carver:
         self.gl = gl
         self.max_resolution = max_resolution
         self._slots = [_Scratch(gl.ctx, max_resolution) for _ in range(2)]
-        defines = shader_defines()
-        self._address = Pass(
-            "address",
-            program(gl.cache, gl.ctx, "carve/surface.vert", "carve/address.frag", defines=defines),
-            _SURFACE_STATE["address"],
-            ("u_height",),
-        )
-        self._peel = Pass(
-            "peel",
-            program(gl.cache, gl.ctx, "carve/surface.vert", "carve/peel.frag", defines=defines),
-            _SURFACE_STATE["peel"],
-            ("u_height",),
-        )
+        #: Passes 2 and 3 by name, then by whether the body drawn is a swept solid (SWEPT).
+        self._surface = {
+            name: {
+                swept: Pass(
+                    name,
+                    program(
+                        gl.cache,
+                        gl.ctx,
+                        "carve/surface.vert",
+                        f"carve/{name}.frag",
+                        defines=shader_defines(SWEPT=int(swept)),
+                    ),
+                    state,
+                    ("u_height",),
+                )
+                for swept in (False, True)
+            }
+            for name, state in _SURFACE_STATE.items()
+        }
         self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
@@ -267,20 +273,19 @@ class Carver:
     # -- passes 2 and 3 ------------------------------------------------------------------------
     def _address_pass(self, slot: _Scratch, job: CarveJob) -> None:
         clear = (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0)  # (u, v, ..., depth: the far plane)
-        self._camera_pass(self._address, slot.address_fbo, clear, job, job.target, "address")
+        self._camera_pass("address", slot.address_fbo, clear, job, job.target)
 
     def _peel_pass(self, slot: _Scratch, job: CarveJob) -> None:
         clear = (NO_TOOL, NO_TOOL, 0.0, 0.0, 0.0)  # (depth, coverage, ..., depth: the near plane)
-        self._camera_pass(self._peel, slot.peel_fbo, clear, job, job.tool, "peel")
+        self._camera_pass("peel", slot.peel_fbo, clear, job, job.tool)
 
     def _camera_pass(
         self,
-        pass_: Pass,
+        name: str,
         fbo: moderngl.Framebuffer,
         clear: tuple[float, float, float, float, float],
         job: CarveJob,
         body: CarveBody,
-        name: str,
     ) -> None:
         """Passes 2 and 3: `body` (the target or the tool) drawn by the collision camera into its
         own viewport of `fbo`, cleared first to `clear` (colour, then depth)."""
@@ -288,13 +293,14 @@ class Carver:
         fbo.clear(*clear[:4], depth=clear[4], viewport=view)
         target = body is job.target
         triangles = job.camera.target_view if target else job.camera.tool_view
-        pass_.run(
+        uniforms = job.target_uniforms if target else job.tool_uniforms
+        self._surface[name][bool(uniforms["u_swept"])].run(
             self.gl.ctx,
             fbo,
             view,
             body.gpu_mesh.drawer(triangles, name),
             (body.maps.height,),
-            job.target_uniforms if target else job.tool_uniforms,
+            uniforms,
         )
 
     # -- pass 4 --------------------------------------------------------------------------------
@@ -312,7 +318,7 @@ class Carver:
         for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
             if len(triangles) == 0:
                 continue
-            gather = self._texel[f"gather{gutter}"]
+            gather = self._texel[f"gather{gutter}{'-swept' if uniforms['u_swept'] else ''}"]
             gather.run(
                 self.gl.ctx,
                 maps.height_fbo,

@@ -23,27 +23,31 @@ _NORMALS = PassState(clip_distances=True)
 
 
 def texture_space_passes(gl: GLContext) -> dict[str, Pass]:
-    """Passes 4 and 5, each as a chart draw (GUTTER 0) and a gutter draw (GUTTER 1); cached."""
+    """Passes 4 and 5, each as a chart draw (GUTTER 0: "gather0", "normals0") and a gutter draw
+    (GUTTER 1: "gather1", "normals1"); the gather also for a swept solid's own surface (SWEPT 1:
+    "gather0-swept", "gather1-swept"). Cached per context."""
     key = "carve:texture-space-passes"
     if key in gl.cache:
         return gl.cache[key]
     passes = {}
     for gutter in (0, 1):
-        defines = shader_defines(GUTTER=gutter)
         geometry = "carve/texel.geom" if gutter else None
-        for name, state, samplers in (
-            ("gather", _GATHER, ("u_address", "u_tool_depth", "u_mask")),
-            ("normals", _NORMALS, ("u_height", "u_mask")),
+        for name, state, samplers, swepts in (
+            ("gather", _GATHER, ("u_address", "u_tool_depth", "u_mask"), (0, 1)),
+            ("normals", _NORMALS, ("u_height", "u_mask"), (0,)),
         ):
-            prog = program(
-                gl.cache,
-                gl.ctx,
-                "carve/texel.vert",
-                f"carve/{name}.frag",
-                geometry,
-                defines=defines,
-            )
-            passes[f"{name}{gutter}"] = Pass(name, prog, state, samplers)
+            for swept in swepts:
+                prog = program(
+                    gl.cache,
+                    gl.ctx,
+                    "carve/texel.vert",
+                    f"carve/{name}.frag",
+                    geometry,
+                    defines=shader_defines(GUTTER=gutter, SWEPT=swept),
+                )
+                passes[f"{name}{gutter}{'-swept' if swept else ''}"] = Pass(
+                    name, prog, state, samplers
+                )
     gl.cache[key] = passes
     return passes
 
@@ -111,7 +115,8 @@ def clip_uniforms(
 
 def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
     """A built-in sphere or capsule's own solid (world metres) for the passes that put points on
-    its smooth surface; other meshes keep their facets (`u_swept` false)."""
+    its smooth surface; other meshes keep their facets (`u_swept` false). `u_swept` picks the
+    passes' SWEPT variant; the programs have no such uniform."""
     bound = mesh.bound
     if bound is None or not bound.exact or bound.segment is None:
         return {"u_swept": False}
