@@ -410,7 +410,7 @@ def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
             # Chart texels only: a gutter texel (outside every chart, there for filtering) takes
             # the deepest of the border triangles drawn next to it, and the two cameras draw
             # different sets of those.
-            charts = [gl.read(body.maps.mask)[:, :, 0] >= 128 for body in (target, tool)]
+            charts = [(gl.read(body.maps.mask)[:, :, 0] & 1) == 1 for body in (target, tool)]
             results[loose] = (
                 np.where(charts[0], heights(gl, target), 0.0),
                 np.where(charts[1], heights(gl, tool), 0.0),

@@ -12,10 +12,10 @@
 #include "camera.glsl"
 #include "texel.glsl"
 #include "swept.glsl"
+#include "chart.glsl"
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
 uniform sampler2D u_tool_depth;  // pass 3: (the tool's bumped view depth m, coverage), LINEAR
-uniform sampler2D u_mask;        // 1 inside a UV chart, 0 in the gutters
 uniform float u_min_height;      // -max_dent_depth of the target, metres
 uniform float u_ceiling;         // no texel of the target is higher than this, metres
 uniform float u_pixel_diagonal;  // a camera pixel's diagonal, metres
@@ -47,7 +47,7 @@ bool tool_depth_at(vec2 p, out float depth) {
 
 void main() {
 #if GUTTER
-    if (texelFetch(u_mask, ivec2(gl_FragCoord.xy), 0).r >= 0.5) discard;  // GUTTER 0 has it
+    if ((chart_bits(ivec2(gl_FragCoord.xy)) & CHART_SELF) != 0u) discard;  // GUTTER 0 has it
 #endif
     vec3 world, n;
     ivec2 source;

@@ -6,23 +6,18 @@
 // Gutter texels take the normal of the chart texel nearest to them on their triangle.
 #include "../include/common.glsl"
 #include "texel.glsl"
+#include "chart.glsl"
 
 uniform sampler2D u_height;  // R32F metres
-uniform sampler2D u_mask;    // 1 inside a UV chart
 
 out vec4 f_normal;
 
-bool in_chart(ivec2 t, ivec2 size) {
-    if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, size))) return false;
-    return texelFetch(u_mask, t, 0).r >= 0.5;
-}
-
-// Height change per texel step along `step` (metres), one-sided at chart borders.
-float difference(ivec2 t, ivec2 step, ivec2 size) {
-    ivec2 lo = t - step, hi = t + step;
-    float span = 2.0;
-    if (!in_chart(lo, size)) { lo = t; span -= 1.0; }
-    if (!in_chart(hi, size)) { hi = t; span -= 1.0; }
+// Height change per texel step along `step` (metres), one-sided at chart borders: `lo_in`, `hi_in`
+// say whether t - step and t + step lie inside a chart.
+float difference(ivec2 t, ivec2 step, bool lo_in, bool hi_in) {
+    ivec2 lo = lo_in ? t - step : t;
+    ivec2 hi = hi_in ? t + step : t;
+    float span = float(lo_in) + float(hi_in);
     if (span < 1.0) return 0.0;
     return (texelFetch(u_height, hi, 0).r - texelFetch(u_height, lo, 0).r) / span;
 }
@@ -50,8 +45,11 @@ void main() {
         if (best > 1e29) discard;
     }
 #endif
-    float du = difference(source, ivec2(1, 0), size);
-    float dv = difference(source, ivec2(0, 1), size);
+    uint bits = chart_bits(source);
+    bool left = (bits & CHART_LEFT) != 0u, right = (bits & CHART_RIGHT) != 0u;
+    bool down = (bits & CHART_DOWN) != 0u, up = (bits & CHART_UP) != 0u;
+    float du = difference(source, ivec2(1, 0), left, right);
+    float dv = difference(source, ivec2(0, 1), down, up);
     float grad_t = du / metric.x;                          // dh/ds along T
     float grad_b = (dv - grad_t * metric.y) / metric.z;    // dh/ds along B
     f_normal = vec4(encode_normal(normalize(vec3(-grad_t, -grad_b, 1.0))), 1.0);

@@ -280,7 +280,7 @@ def memory(gl: GLContext) -> dict:
     per_texel = BYTES_PER_TEXEL
     return {
         "bytes_per_texel": per_texel,
-        "layout": "R32F height (4) + RGBA8 normal (4) + R8 chart mask (1)",
+        "layout": "R32F height (4) + RGBA8 normal (4) + R8UI chart mask (1)",
         "map_bytes": {str(s): s * s * per_texel for s in (256, 512, 1024, 2048, 4096)},
         # Two directions: address RGBA32F (16) + tool depth and coverage RG32F (8) + depth (4).
         "scratch_bytes": 2 * 1023 * 1023 * (16 + 8 + 4),

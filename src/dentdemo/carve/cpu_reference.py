@@ -52,7 +52,7 @@ class CpuReference:
         if key not in self._mirrors:
             height = self.gl.read(body.maps.height)[:, :, 0].copy()
             normal = self.gl.read(body.maps.normal).copy()
-            mask = self.gl.read(body.maps.mask)[:, :, 0] >= 128
+            mask = (self.gl.read(body.maps.mask)[:, :, 0] & 1) == 1
             self._mirrors[key] = (height, normal, mask)
         return self._mirrors[key]
 

@@ -1,5 +1,6 @@
 """Per-body surface maps on the GPU: height (R32F, metres), normal (RGBA8, tangent space) and the
-static chart mask (R8), plus the body's mesh in GPU buffers."""
+static chart mask (R8UI: whether each texel and its four neighbours lie in a chart), plus the
+body's mesh in GPU buffers."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from dentdemo.mesh.mesh import Mesh
 #: Largest map side, texels; a bigger request is capped with a warning.
 MAX_MAP_SIZE = 4096
 MIN_MAP_SIZE = 16
-#: GPU memory per texel of a body's maps: R32F height (4) + RGBA8 normal (4) + R8 chart mask (1).
+#: GPU memory per texel of a body's maps: R32F height (4) + RGBA8 normal (4) + R8UI chart mask (1).
 BYTES_PER_TEXEL = 4 + 4 + 1
 
 
@@ -181,15 +182,7 @@ def _create_maps(
     normal = ctx.texture((size, size), 4, dtype="f1")
     normal.filter = (moderngl.LINEAR, moderngl.LINEAR)
     normal.repeat_x = normal.repeat_y = False
-    mask = ctx.texture((size, size), 1, dtype="f1")
-    mask.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    mask_fbo = ctx.framebuffer([mask])
-    mask_fbo.use()
-    mask_fbo.clear(0.0)
-    ctx.disable(moderngl.CULL_FACE | moderngl.DEPTH_TEST | moderngl.BLEND)
-    gpu_mesh.vao(program(gl.cache, ctx, "util/uv_mask.vert", "util/uv_mask.frag")).render(
-        moderngl.TRIANGLES
-    )
+    mask = _chart_mask(gl, gpu_mesh, size)
     su, sv = mesh.uv_scale()
     maps = SurfaceMaps(
         height=height,
@@ -202,8 +195,34 @@ def _create_maps(
         max_height=max_height,
     )
     rebuild_all_normals(gl, gpu_mesh, maps)
-    release(mask_fbo)
     return maps
+
+
+def _chart_mask(gl: GLContext, gpu_mesh: GpuMesh, size: int) -> moderngl.Texture:
+    """The chart mask (R8UI, carve/chart.glsl): the charts' coverage drawn in texture space, then
+    each texel's bits for itself and its four neighbours."""
+    ctx = gl.ctx
+    coverage = ctx.texture((size, size), 1, dtype="f1")
+    coverage_fbo = ctx.framebuffer([coverage])
+    coverage_fbo.use()
+    ctx.viewport = (0, 0, size, size)
+    coverage_fbo.clear(0.0)
+    ctx.disable(moderngl.CULL_FACE | moderngl.DEPTH_TEST | moderngl.BLEND)
+    gpu_mesh.vao(program(gl.cache, ctx, "util/uv_mask.vert", "util/uv_mask.frag")).render(
+        moderngl.TRIANGLES
+    )
+    mask = ctx.texture((size, size), 1, dtype="u1")
+    mask.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture is never filtered
+    mask_fbo = ctx.framebuffer([mask])
+    mask_fbo.use()
+    ctx.viewport = (0, 0, size, size)
+    bits = program(gl.cache, ctx, "util/fullscreen.vert", "util/chart_bits.frag")
+    coverage.use(0)
+    bits["u_coverage"].value = 0
+    empty = ctx.vertex_array(bits, [])
+    empty.render(moderngl.TRIANGLES, vertices=3)
+    release(empty, mask_fbo, coverage_fbo, coverage)
+    return mask
 
 
 def rebuild_all_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None:
