@@ -97,9 +97,16 @@ class Mesh:
     def triangle_derivatives(
         self, which: NDArray[np.int64] | None = None
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """dP/du and dP/dv of triangles `which` (all: None), local metres per uv unit."""
-        dpdu, dpdv, _ = _triangle_derivatives(self, which)
-        return dpdu, dpdv
+        """dP/du and dP/dv of triangles `which` (all: None), local metres per uv unit (cached
+        for the whole mesh: a hit asks for one triangle's)."""
+        cached = getattr(self, "_derivative_cache", None)
+        if cached is None or len(cached[0]) != len(self.indices):
+            dpdu, dpdv, _ = _triangle_derivatives(self)
+            cached = (dpdu, dpdv)
+            self._derivative_cache = cached
+        if which is None:
+            return cached
+        return cached[0][which], cached[1][which]
 
     def chart_border(self) -> NDArray[np.bool_]:
         """(m,) True for triangles with an edge on a UV chart's border (an edge no other triangle
@@ -201,8 +208,8 @@ class Mesh:
         group = group[group >= 0]
         centre, _ = self.triangle_spheres()
         k = int(group[np.argmin(((centre[group] - p) ** 2).sum(1))])
-        dpdu, dpdv, _ = _triangle_derivatives(self, np.array([k]))
-        du, dv = dpdu[0], dpdv[0]
+        dpdu, dpdv = self.triangle_derivatives()
+        du, dv = dpdu[k], dpdv[k]
         a = self.positions[self.indices[k, 0]].astype(np.float64)
         uv0 = self.uvs[self.indices[k, 0]].astype(np.float64)
         n = np.array(
