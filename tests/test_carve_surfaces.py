@@ -469,3 +469,46 @@ def test_a_target_s_proud_bumps_meet_the_tool(gl, carver, bodies):
     expected = np.minimum(bumps, underside)
     assert (expected < bumps - 1e-6).sum() > 200  # the ball flattens a real patch
     assert np.abs(h - expected).max() <= 2e-6
+
+
+def _chart_texels(mesh, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Texel centres inside a UV triangle, from the mesh's uvs alone (an independent raster), and
+    the texels whose centre lies within 1e-3 texel of an edge, where GL's fill rule decides."""
+    inside = np.zeros((size, size), dtype=bool)
+    edge = np.zeros((size, size), dtype=bool)
+    uv = mesh.uvs.astype(np.float64)[mesh.indices] * size  # (m, 3, 2) texel units
+    for tri in uv:
+        lo = np.clip(np.floor(tri.min(axis=0) - 1).astype(int), 0, size - 1)
+        hi = np.clip(np.ceil(tri.max(axis=0) + 1).astype(int), 0, size - 1)
+        cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
+        p = np.stack([cols + 0.5, rows + 0.5], axis=-1)
+        e1, e2 = tri[1] - tri[0], tri[2] - tri[0]
+        area = e1[0] * e2[1] - e1[1] * e2[0]
+        dist = []
+        for i in range(3):
+            a, b = tri[i], tri[(i + 1) % 3]
+            e, r = b - a, p - a
+            side = (e[0] * r[..., 1] - e[1] * r[..., 0]) * np.sign(area)
+            dist.append(side / np.linalg.norm(b - a))  # signed distance, texels (> 0 inside)
+        d = np.min(dist, axis=0)
+        inside[rows, cols] |= d > 1e-3
+        edge[rows, cols] |= np.abs(d) <= 1e-3
+    return inside, edge & ~inside
+
+
+@pytest.mark.parametrize("kind", ["box", "sphere", "capsule", "mesh"])
+def test_chart_mask_bits_are_each_texel_and_its_neighbours(gl, bodies, kind):
+    """The chart mask holds, for every texel, whether it and each of its four neighbours lie in a
+    chart (bits 0-4): against a raster of the mesh's uv triangles made here in numpy."""
+    mesh = target_and_contact(kind)[0]
+    size = 128
+    body = bodies.make(mesh, size)
+    bits = gl.read(body.maps.mask)[:, :, 0].astype(np.int64)
+    chart, on_edge = _chart_texels(mesh, size)
+    decided = ~on_edge
+    assert chart.sum() > 0.2 * size * size
+    assert np.array_equal((bits & 1 == 1)[decided], chart[decided])
+    own = np.pad(bits & 1, 1)  # texels outside the map lie in no chart
+    for bit, (dr, dc) in ((1, (0, -1)), (2, (0, 1)), (3, (-1, 0)), (4, (1, 0))):
+        neighbour = own[1 + dr : 1 + dr + size, 1 + dc : 1 + dc + size]
+        assert np.array_equal((bits >> bit) & 1, neighbour), f"bit {bit}"
