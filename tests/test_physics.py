@@ -403,3 +403,18 @@ def test_ode_messages_are_one_dentdemo_line_and_quiet_silences_them(capsys):
     message(7, b"anything %s", b"at all")
     assert capsys.readouterr().err == ""
     log.configure(quiet=False)
+
+
+def test_a_library_source_warning_is_not_shown(capsys):
+    """A dependency whose source has an invalid string escape (pyrr on Python 3.12, imported
+    without a compiled .pyc) warns at compile time with neither file nor advice: not our user's
+    business. Other warnings still come through as one line."""
+    import warnings
+
+    from dentdemo import log
+
+    log.configure(quiet=False)
+    compile("x = '\\ '", "library.py", "exec")  # SyntaxWarning (3.12), DeprecationWarning (3.11)
+    assert capsys.readouterr().err == ""
+    warnings.warn("something the user should know", stacklevel=1)
+    assert capsys.readouterr().err == "dentdemo: warning: something the user should know\n"

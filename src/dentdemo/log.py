@@ -26,3 +26,6 @@ def configure(quiet: bool) -> None:
 
     warnings.showwarning = show
     warnings.simplefilter("default")
+    # A library's own source (pyrr's docstrings on Python 3.12, compiled where no .pyc was
+    # written) is nothing a user can act on, and the line would not even name the file.
+    warnings.filterwarnings("ignore", message="invalid escape sequence")
