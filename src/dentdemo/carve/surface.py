@@ -15,7 +15,7 @@ import numpy as np
 
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext, release
-from dentdemo.gl.shaders import program
+from dentdemo.gl.shaders import program, set_uniform
 from dentdemo.gl.state import preserved
 from dentdemo.mesh.mesh import Mesh
 
@@ -218,7 +218,7 @@ def _chart_mask(gl: GLContext, gpu_mesh: GpuMesh, size: int) -> moderngl.Texture
     ctx.viewport = (0, 0, size, size)
     bits = program(gl.cache, ctx, "util/fullscreen.vert", "util/chart_bits.frag")
     coverage.use(0)
-    bits["u_coverage"].value = 0
+    set_uniform(bits, "u_coverage", 0)
     empty = ctx.vertex_array(bits, [])
     empty.render(moderngl.TRIANGLES, vertices=3)
     release(empty, mask_fbo, coverage_fbo, coverage)
