@@ -1,13 +1,10 @@
-// The chart mask (R8UI, one byte a texel, made once per map by util/chart_bits.frag): bit 0 is set
-// where the texel lies inside a UV chart, bits 1 to 4 where its neighbour at -u, +u, -v, +v does
-// (and lies inside the map). One fetch answers what central differences need at a texel.
-uniform usampler2D u_mask;
+// The chart mask (R8UI, one byte a texel, made once per map by util/chart_bits.frag): the bit
+// CHART_SELF is set where the texel lies inside a UV chart, CHART_LEFT, CHART_RIGHT, CHART_DOWN and
+// CHART_UP where its neighbour at -u, +u, -v, +v does (and lies inside the map); the values are
+// defines from constants.py. One fetch answers what central differences need at a texel.
+#include "../include/texel.glsl"
 
-const uint CHART_SELF = 1u;
-const uint CHART_LEFT = 2u;   // -u
-const uint CHART_RIGHT = 4u;  // +u
-const uint CHART_DOWN = 8u;   // -v
-const uint CHART_UP = 16u;    // +v
+uniform usampler2D u_mask;
 
 uint chart_bits(ivec2 t) {
     return texelFetch(u_mask, t, 0).r;
@@ -15,6 +12,5 @@ uint chart_bits(ivec2 t) {
 
 // Whether texel t (anywhere, inside the map or not) lies inside a chart.
 bool in_chart(ivec2 t, ivec2 size) {
-    if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, size))) return false;
-    return (chart_bits(t) & CHART_SELF) != 0u;
+    return in_map(t, size) && (chart_bits(t) & CHART_SELF) != 0u;
 }

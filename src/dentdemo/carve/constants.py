@@ -22,6 +22,9 @@ SLAB_MARGIN_TEXELS = 0.25
 RING_TEXELS = 1.5
 #: Address-map clear value of u: no target surface at that camera pixel.
 NO_SURFACE = -1.0
+#: The chart mask's bits (R8UI, one byte a texel): the texel itself lies inside a UV chart, then
+#: its neighbour at -u, +u, -v, +v does (and lies inside the map).
+CHART_SELF, CHART_LEFT, CHART_RIGHT, CHART_DOWN, CHART_UP = 1, 2, 4, 8, 16
 
 
 def shader_defines(**extra: object) -> dict[str, object]:
@@ -32,6 +35,16 @@ def shader_defines(**extra: object) -> dict[str, object]:
         "MIN_COS": repr(float(MIN_COS)),
         "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),
         "NO_SURFACE": repr(float(NO_SURFACE)),
+        **{
+            name: f"{value}u"
+            for name, value in (
+                ("CHART_SELF", CHART_SELF),
+                ("CHART_LEFT", CHART_LEFT),
+                ("CHART_RIGHT", CHART_RIGHT),
+                ("CHART_DOWN", CHART_DOWN),
+                ("CHART_UP", CHART_UP),
+            )
+        },
     }
     defines.update(extra)
     return defines

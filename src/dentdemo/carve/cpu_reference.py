@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera, ContactFrame
 from dentdemo.carve.carver import CarveBody, CarveJob, Carver
-from dentdemo.carve.constants import GUTTER_REACH_TEXELS, MIN_COS, NO_SURFACE
+from dentdemo.carve.constants import CHART_SELF, GUTTER_REACH_TEXELS, MIN_COS, NO_SURFACE
 from dentdemo.carve.texel_passes import swept_uniforms
 from dentdemo.gl.context import GLContext
 
@@ -52,7 +52,7 @@ class CpuReference:
         if key not in self._mirrors:
             height = self.gl.read(body.maps.height)[:, :, 0].copy()
             normal = self.gl.read(body.maps.normal).copy()
-            mask = (self.gl.read(body.maps.mask)[:, :, 0] & 1) == 1
+            mask = (self.gl.read(body.maps.mask)[:, :, 0] & CHART_SELF) != 0
             self._mirrors[key] = (height, normal, mask)
         return self._mirrors[key]
 

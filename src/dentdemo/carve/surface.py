@@ -13,6 +13,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
+from dentdemo.carve.constants import shader_defines
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.shaders import program, set_uniform
@@ -205,7 +206,6 @@ def _chart_mask(gl: GLContext, gpu_mesh: GpuMesh, size: int) -> moderngl.Texture
     coverage = ctx.texture((size, size), 1, dtype="f1")
     coverage_fbo = ctx.framebuffer([coverage])
     coverage_fbo.use()
-    ctx.viewport = (0, 0, size, size)
     coverage_fbo.clear(0.0)
     ctx.disable(moderngl.CULL_FACE | moderngl.DEPTH_TEST | moderngl.BLEND)
     gpu_mesh.vao(program(gl.cache, ctx, "util/uv_mask.vert", "util/uv_mask.frag")).render(
@@ -215,8 +215,9 @@ def _chart_mask(gl: GLContext, gpu_mesh: GpuMesh, size: int) -> moderngl.Texture
     mask.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture is never filtered
     mask_fbo = ctx.framebuffer([mask])
     mask_fbo.use()
-    ctx.viewport = (0, 0, size, size)
-    bits = program(gl.cache, ctx, "util/fullscreen.vert", "util/chart_bits.frag")
+    bits = program(
+        gl.cache, ctx, "util/fullscreen.vert", "util/chart_bits.frag", defines=shader_defines()
+    )
     coverage.use(0)
     set_uniform(bits, "u_coverage", 0)
     empty = ctx.vertex_array(bits, [])
