@@ -104,24 +104,22 @@ class Carver:
         self.gl = gl
         self.max_resolution = max_resolution
         self._slots = [_Scratch(gl.ctx, max_resolution) for _ in range(2)]
-        #: Passes 2 and 3 by name, then by whether the body drawn is a swept solid (SWEPT).
+        #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT).
         self._surface = {
-            name: {
-                swept: Pass(
-                    name,
-                    program(
-                        gl.cache,
-                        gl.ctx,
-                        "carve/surface.vert",
-                        f"carve/{name}.frag",
-                        defines=shader_defines(SWEPT=int(swept)),
-                    ),
-                    state,
-                    ("u_height",),
-                )
-                for swept in (False, True)
-            }
+            (name, swept): Pass(
+                name,
+                program(
+                    gl.cache,
+                    gl.ctx,
+                    "carve/surface.vert",
+                    f"carve/{name}.frag",
+                    defines=shader_defines(SWEPT=int(swept)),
+                ),
+                state,
+                ("u_height",),
+            )
             for name, state in _SURFACE_STATE.items()
+            for swept in (False, True)
         }
         self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
@@ -294,7 +292,7 @@ class Carver:
         target = body is job.target
         triangles = job.camera.target_view if target else job.camera.tool_view
         uniforms = job.target_uniforms if target else job.tool_uniforms
-        self._surface[name][bool(uniforms["u_swept"])].run(
+        self._surface[name, bool(uniforms["u_swept"])].run(
             self.gl.ctx,
             fbo,
             view,
@@ -318,7 +316,7 @@ class Carver:
         for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
             if len(triangles) == 0:
                 continue
-            gather = self._texel[f"gather{gutter}{'-swept' if uniforms['u_swept'] else ''}"]
+            gather = self._texel["gather", gutter, bool(uniforms["u_swept"])]
             gather.run(
                 self.gl.ctx,
                 maps.height_fbo,

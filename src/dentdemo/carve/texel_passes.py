@@ -22,10 +22,10 @@ _GATHER = PassState(blend_min=True, clip_distances=True)
 _NORMALS = PassState(clip_distances=True)
 
 
-def texture_space_passes(gl: GLContext) -> dict[str, Pass]:
-    """Passes 4 and 5, each as a chart draw (GUTTER 0: "gather0", "normals0") and a gutter draw
-    (GUTTER 1: "gather1", "normals1"); the gather also for a swept solid's own surface (SWEPT 1:
-    "gather0-swept", "gather1-swept"). Cached per context."""
+def texture_space_passes(gl: GLContext) -> dict[tuple[str, int, bool], Pass]:
+    """Passes 4 and 5 by (name, gutter, swept): each as a chart draw (GUTTER 0) and a gutter draw
+    (GUTTER 1); the gather also for a swept solid's own surface (SWEPT 1; the normal rebuild reads
+    only the map, so it has no such variant). Cached per context."""
     key = "carve:texture-space-passes"
     if key in gl.cache:
         return gl.cache[key]
@@ -33,8 +33,8 @@ def texture_space_passes(gl: GLContext) -> dict[str, Pass]:
     for gutter in (0, 1):
         geometry = "carve/texel.geom" if gutter else None
         for name, state, samplers, swepts in (
-            ("gather", _GATHER, ("u_address", "u_tool_depth", "u_mask"), (0, 1)),
-            ("normals", _NORMALS, ("u_height", "u_mask"), (0,)),
+            ("gather", _GATHER, ("u_address", "u_tool_depth", "u_mask"), (False, True)),
+            ("normals", _NORMALS, ("u_height", "u_mask"), (False,)),
         ):
             for swept in swepts:
                 prog = program(
@@ -43,11 +43,9 @@ def texture_space_passes(gl: GLContext) -> dict[str, Pass]:
                     "carve/texel.vert",
                     f"carve/{name}.frag",
                     geometry,
-                    defines=shader_defines(GUTTER=gutter, SWEPT=swept),
+                    defines=shader_defines(GUTTER=gutter, SWEPT=int(swept)),
                 )
-                passes[f"{name}{gutter}{'-swept' if swept else ''}"] = Pass(
-                    name, prog, state, samplers
-                )
+                passes[name, gutter, swept] = Pass(name, prog, state, samplers)
     gl.cache[key] = passes
     return passes
 
@@ -58,7 +56,7 @@ def rebuild_normals(
     maps: SurfaceMaps,
     model: NDArray[np.float64],
     camera: CollisionCamera | None,
-    passes: dict[str, Pass] | None = None,
+    passes: dict[tuple[str, int, bool], Pass] | None = None,
     shared: dict[str, object] | None = None,
 ) -> None:
     """Pass 5: the normals of the texels in `camera`'s footprint (its `ring_slab`), or of every
@@ -78,7 +76,7 @@ def rebuild_normals(
     for gutter, triangles in ((0, every), (1, border)):
         if triangles is not None and len(triangles) == 0:
             continue
-        normals = passes[f"normals{gutter}"]
+        normals = passes["normals", gutter, False]
         normals.run(
             gl.ctx,
             maps.normal_fbo,
