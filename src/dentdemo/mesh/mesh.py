@@ -191,7 +191,7 @@ class Mesh:
         bary, dist = bary[best : best + 1], dist[best : best + 1]
         a, b, c = a[k : k + 1], b[k : k + 1], c[k : k + 1]
         uv = (self.uvs.astype(np.float64)[self.indices[k]] * bary[0][:, None]).sum(axis=0)
-        dpdu, dpdv, _ = _triangle_derivatives(self, np.array([k]))
+        dpdu, dpdv = self.triangle_derivatives(np.array([k]))
         n = np.cross(b[0] - a[0], c[0] - a[0])
         n /= max(np.linalg.norm(n), 1e-30)
         return SurfacePoint(uv, dpdu[0], dpdv[0], n, float(dist[0]))
