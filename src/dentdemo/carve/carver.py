@@ -16,7 +16,6 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import BodyPose, CollisionCamera, ContactFrame, collision_camera
 from dentdemo.carve.constants import NO_SURFACE, NO_TOOL, shader_defines
-from dentdemo.carve.passes import Pass, PassState
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
     camera_uniforms,
@@ -27,6 +26,7 @@ from dentdemo.carve.texel_passes import (
     texture_space_passes,
 )
 from dentdemo.gl.context import GLContext, release
+from dentdemo.gl.passes import Pass, PassState
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
 

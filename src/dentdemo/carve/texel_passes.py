@@ -10,16 +10,18 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera
 from dentdemo.carve.constants import shader_defines
-from dentdemo.carve.passes import Pass, PassState
 from dentdemo.gl.context import GLContext
+from dentdemo.gl.passes import MIN_BLEND, Pass, PassState
 from dentdemo.gl.shaders import program
 
 if TYPE_CHECKING:
     from dentdemo.carve.surface import GpuMesh, SurfaceMaps
     from dentdemo.mesh.mesh import Mesh
 
-_GATHER = PassState(blend_min=True, clip_distances=True)
-_NORMALS = PassState(clip_distances=True)
+#: Clip distances clip.glsl writes (camera rectangle: 4, depth slab: 2).
+CLIP_DISTANCES = 6
+_GATHER = PassState(blend=MIN_BLEND, clip_distances=CLIP_DISTANCES)
+_NORMALS = PassState(clip_distances=CLIP_DISTANCES)
 
 
 def texture_space_passes(gl: GLContext) -> dict[tuple[str, int, bool], Pass]:

@@ -1,0 +1,190 @@
+"""Render passes as small objects: a program, the fixed-function state it runs under (declared once,
+not set by hand at each call site) and the textures it samples. The carve and the renderer both
+draw through `Pass.run`.
+
+A pass sets every piece of state its result depends on, whatever the state before it (a host
+program's, or another pass's): depth test, function and mask; culling and front face; blending;
+clip distances; polygon mode (filled unless declared); the sampler object on each texture unit it
+reads (its own, or none, so that the texture's own filter and wrap apply); and it switches off the
+tests and modes no pass declares (scissor, stencil, polygon offset, depth clamp, primitive
+restart, logic op, sample coverage and mask, sRGB writes). Afterwards it puts back moderngl's
+defaults for what it declared, so moderngl's record of the context (front and cull face,
+wireframe, the bound framebuffer's depth mask) matches the driver. Restoring a host's own state
+is `gl.state.preserved`'s job, at the public entry points."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import moderngl
+
+from dentdemo.gl.library import gl_library
+from dentdemo.gl.shaders import set_uniform
+
+GL_CLIP_DISTANCE0 = 0x3000
+#: Clip distances a pass may enable (GL 3.3 guarantees at least 8).
+MAX_CLIP_DISTANCES = 8
+#: Capabilities no pass declares, kept off during every pass (glDisable): scissor and stencil
+#: tests, polygon offset (fill, line, point), depth clamp, primitive restart, logic op,
+#: alpha-to-coverage, sample coverage, sample mask, sRGB framebuffer writes.
+_OFF = (
+    0x0C11,  # GL_SCISSOR_TEST
+    0x0B90,  # GL_STENCIL_TEST
+    0x8037,  # GL_POLYGON_OFFSET_FILL
+    0x2A02,  # GL_POLYGON_OFFSET_LINE
+    0x2A01,  # GL_POLYGON_OFFSET_POINT
+    0x864F,  # GL_DEPTH_CLAMP
+    0x8F9D,  # GL_PRIMITIVE_RESTART
+    0x0BF2,  # GL_COLOR_LOGIC_OP
+    0x809E,  # GL_SAMPLE_ALPHA_TO_COVERAGE
+    0x80A0,  # GL_SAMPLE_COVERAGE
+    0x8E51,  # GL_SAMPLE_MASK
+    0x8DB9,  # GL_FRAMEBUFFER_SRGB
+)
+
+
+@dataclass(frozen=True)
+class Blend:
+    """Blend factors and equations (glBlendFuncSeparate, glBlendEquationSeparate), moderngl's
+    constants: out = equation(src_factor * fragment, dst_factor * framebuffer)."""
+
+    src_rgb: int
+    dst_rgb: int
+    src_alpha: int
+    dst_alpha: int
+    equation_rgb: int = moderngl.FUNC_ADD
+    equation_alpha: int = moderngl.FUNC_ADD
+
+
+#: out = min(fragment, framebuffer) (MIN ignores the factors): dents only deepen.
+MIN_BLEND = Blend(
+    moderngl.ONE, moderngl.ONE, moderngl.ONE, moderngl.ONE, moderngl.MIN, moderngl.MIN
+)
+#: Ordinary "over" compositing: out = a * fragment + (1 - a) * framebuffer (a: fragment alpha).
+ALPHA_BLEND = Blend(
+    moderngl.SRC_ALPHA,
+    moderngl.ONE_MINUS_SRC_ALPHA,
+    moderngl.SRC_ALPHA,
+    moderngl.ONE_MINUS_SRC_ALPHA,
+)
+#: moderngl's default factors and equation, put back after a pass that blends.
+_DEFAULT_BLEND = ALPHA_BLEND
+
+
+@dataclass(frozen=True)
+class PassState:
+    """Fixed-function state of one pass; what is not named is off (or GL's default)."""
+
+    depth_test: bool = False
+    #: GL depth function while the depth test is on ("<" nearest wins, ">" farthest wins, ...).
+    depth_func: str = "<"
+    #: Whether the pass writes depth (glDepthMask).
+    depth_write: bool = True
+    #: Which faces to drop: "back", "front" or None (keep both).
+    cull: str | None = None
+    #: Winding of a front face: "ccw" (GL's default) or "cw".
+    front_face: str = "ccw"
+    #: Blend factors and equations, or None (no blending: the fragment replaces).
+    blend: Blend | None = None
+    #: gl_ClipDistance[0 .. n-1] are enabled, the rest of the 8 disabled.
+    clip_distances: int = 0
+    #: Draw triangle edges only (glPolygonMode LINE); filled otherwise, whatever the host set.
+    wireframe: bool = False
+
+
+@contextmanager
+def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
+    """Run under `state` (after the pass's framebuffer is bound: binding one applies its own
+    colour and depth masks and switches the scissor test off), then put back moderngl's defaults
+    for what `state` sets: depth test, culling and blending off, depth function "<", cull face
+    "back", front face "ccw", default blend, clip distances off, filled polygons, and the bound
+    framebuffer's depth mask."""
+    gl = gl_library()
+    for capability in _OFF:
+        gl.glDisable(capability)
+    flags: int = 0  # none
+    if state.depth_test:
+        flags |= moderngl.DEPTH_TEST
+        ctx.depth_func = state.depth_func
+    if state.cull:
+        flags |= moderngl.CULL_FACE
+        ctx.cull_face = state.cull
+    ctx.front_face = state.front_face
+    if state.blend is not None:
+        flags |= moderngl.BLEND
+        _set_blend(state.blend)
+    ctx.enable_only(flags)  # also switches off rasterizer discard and program point size
+    gl.glDepthMask(int(state.depth_write))
+    ctx.wireframe = state.wireframe
+    for i in range(MAX_CLIP_DISTANCES):
+        (gl.glEnable if i < state.clip_distances else gl.glDisable)(GL_CLIP_DISTANCE0 + i)
+    try:
+        yield
+    finally:
+        for i in range(state.clip_distances):
+            gl.glDisable(GL_CLIP_DISTANCE0 + i)
+        ctx.enable_only(0)  # none
+        ctx.depth_func = "<"
+        ctx.cull_face = "back"
+        ctx.front_face = "ccw"
+        if state.blend is not None:
+            _set_blend(_DEFAULT_BLEND)
+        fbo = ctx.fbo
+        gl.glDepthMask(int(fbo.depth_mask) if fbo is not None else 1)
+        ctx.wireframe = False
+
+
+def _set_blend(blend: Blend) -> None:
+    """Through GL directly: moderngl keeps no readable record of either."""
+    gl = gl_library()
+    gl.glBlendFuncSeparate(blend.src_rgb, blend.dst_rgb, blend.src_alpha, blend.dst_alpha)
+    gl.glBlendEquationSeparate(blend.equation_rgb, blend.equation_alpha)
+
+
+#: A texture a pass samples, alone (sampled through its own filter and wrap: any sampler object
+#: on its unit is unbound) or with the sampler object to sample it through.
+Sampled = moderngl.Texture | tuple[moderngl.Texture, moderngl.Sampler]
+
+
+@dataclass(frozen=True)
+class Pass:
+    """One pass: `run` binds its textures to units 0, 1, ... and names them to the program's
+    `samplers` in that order, sets `uniforms`, binds the framebuffer and viewport, applies the
+    state and calls `draw(program)`."""
+
+    name: str
+    program: moderngl.Program
+    state: PassState
+    samplers: tuple[str, ...] = ()
+
+    def run(
+        self,
+        ctx: moderngl.Context,
+        fbo: moderngl.Framebuffer,
+        viewport: tuple[int, int, int, int],
+        draw: Callable[[moderngl.Program], None],
+        textures: Sequence[Sampled] = (),
+        uniforms: Mapping[str, object] | None = None,
+    ) -> None:
+        for unit, (name, sampled) in enumerate(zip(self.samplers, textures, strict=True)):
+            bind(ctx, sampled, unit)
+            set_uniform(self.program, name, unit)
+        for name, value in (uniforms or {}).items():
+            set_uniform(self.program, name, value)
+        fbo.use()
+        ctx.viewport = viewport
+        with applied(ctx, self.state):
+            draw(self.program)
+
+
+def bind(ctx: moderngl.Context, sampled: Sampled, unit: int) -> None:
+    """Bind a texture to `unit` with its sampler object, or with none (the host's is unbound)."""
+    if isinstance(sampled, tuple):
+        texture, sampler = sampled
+        texture.use(unit)
+        sampler.use(unit)
+    else:
+        sampled.use(unit)
+        ctx.clear_samplers(unit, unit + 1)
