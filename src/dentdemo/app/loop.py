@@ -225,7 +225,7 @@ class ImageBackend(OffscreenBackend):
 class Tee(OffscreenBackend):
     """Every frame to several offscreen backends at once (images and a video)."""
 
-    def __init__(self, *backends: OffscreenBackend) -> None:
+    def __init__(self, *backends: Backend) -> None:
         self.backends = backends
         self._size = backends[0].size()
 

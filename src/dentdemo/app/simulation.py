@@ -11,7 +11,7 @@ from pathlib import Path
 
 import moderngl
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from dentdemo import outputs
 from dentdemo.carve.camera import ContactFrame
@@ -152,8 +152,8 @@ class Simulation:
 
     def drop_ball(
         self,
-        position: NDArray,
-        velocity: NDArray = (0.0, 0.0, 0.0),
+        position: ArrayLike,
+        velocity: ArrayLike = (0.0, 0.0, 0.0),
         material: str = "steel",
         radius: float = 0.04,
         texels_per_metre: float = 1024.0,
@@ -170,8 +170,8 @@ class Simulation:
             id=body_id,
             shape=Sphere(radius),
             material=self.materials.get(material),
-            position=tuple(float(x) for x in position),
-            velocity=tuple(float(x) for x in velocity),
+            position=_triple(position),
+            velocity=_triple(velocity),
             texels_per_metre=texels_per_metre,
         )
         self.add_body(spec)
@@ -316,6 +316,12 @@ class Simulation:
         self._release_bodies()
         self.carver.release()
         self.world.close()
+
+
+def _triple(vector: ArrayLike) -> tuple[float, float, float]:
+    """Three numbers (a position or velocity, world metres or m/s) as plain floats."""
+    x, y, z = np.asarray(vector, dtype=np.float64).reshape(3)
+    return float(x), float(y), float(z)
 
 
 def _release_body(body: SimBody) -> None:

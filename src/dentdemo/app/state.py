@@ -226,7 +226,7 @@ def load_state(sim: Simulation, directory: Path) -> None:
             step_index=int(world["step_index"]),
             seed=int(world["seed"]),
             order=list(world["order"]),
-            bodies={k: tuple(v) for k, v in world["bodies"].items()},  # type: ignore[misc]
+            bodies={k: tuple(v) for k, v in world["bodies"].items()},
         )
     )
     for body_id, height in heights.items():

@@ -8,6 +8,8 @@ import platform
 import statistics
 import time
 from collections.abc import Callable
+from functools import partial
+from typing import TypedDict
 
 import numpy as np
 
@@ -26,7 +28,27 @@ DETAIL = 2
 #: The same dent in texels on plates of growing size (plate side m, map side): the cost of a hit
 #: must follow its footprint, not the map.
 SAME_DENT = [(0.5, 512), (4.0, 4096)]
-MODES = {
+
+
+class WindowMode(TypedDict):
+    presets: list[str]
+    bodies: list[int]
+    frames: int
+
+
+class Mode(TypedDict):
+    """What one bench mode measures: map sizes, repetitions, body counts, frames."""
+
+    sizes: list[int]
+    reps: int
+    bodies: list[int]
+    frames: int
+    cpu_sizes: list[int]
+    same_dent: list[tuple[float, int]]
+    window: WindowMode
+
+
+MODES: dict[str, Mode] = {
     "tiny": {
         "sizes": [128, 256],
         "reps": 2,
@@ -78,7 +100,7 @@ def same_dent(gl: GLContext, plates: list[tuple[float, int]], reps: int) -> list
     carver = Carver(gl)
     setups = [_press_setup(gl, size, side) for side, size in plates]
     presses = [_press(setup) for setup in setups]
-    runs = [lambda press=press: carver.carve(*press) for press in presses]
+    runs = [partial(carver.carve, *press) for press in presses]
     medians = interleaved_medians(runs, gl.ctx.finish, reps)
     rows = []
     for (side, size), press, ms in zip(plates, presses, medians, strict=True):
@@ -119,7 +141,7 @@ def per_hit(
     for size in sizes:
         gpu_setup = _press_setup(gl, size)
         press = _press(gpu_setup)
-        gpu_ms, _ = median_ms(lambda press=press: carver.carve(*press), finish, reps)
+        gpu_ms, _ = median_ms(partial(carver.carve, *press), finish, reps)
         timer = PassTimer(gl.ctx)
         carver.pass_timer = timer
         for _ in range(reps):
@@ -143,7 +165,7 @@ def per_hit(
             for body in (cpu_setup.target, cpu_setup.tool):
                 reference.mirror(body)  # the CPU path's own copy, made once, outside the timing
             cpu_press = _press(cpu_setup)
-            cpu_ms, _ = median_ms(lambda ref=reference, p=cpu_press: ref.carve(*p), finish, reps)
+            cpu_ms, _ = median_ms(partial(reference.carve, *cpu_press), finish, reps)
             row["cpu_ms"] = cpu_ms
             row["cpu_over_gpu"] = cpu_ms / gpu_ms if gpu_ms > 0 else None
             diff = np.abs(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import statistics
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 
 import moderngl
 
@@ -13,7 +13,7 @@ from dentdemo import interrupt
 
 
 def median_ms(
-    run: Callable[[], None], finish: Callable[[], None], reps: int, warmup: int = 2
+    run: Callable[[], object], finish: Callable[[], None], reps: int, warmup: int = 2
 ) -> tuple[float, list[float]]:
     """Median wall milliseconds of `run` (each ended by `finish`, e.g. ctx.finish)."""
     for _ in range(warmup):
@@ -31,7 +31,7 @@ def median_ms(
 
 
 def interleaved_medians(
-    runs: list[Callable[[], None]], finish: Callable[[], None], reps: int, warmup: int = 2
+    runs: Sequence[Callable[[], object]], finish: Callable[[], None], reps: int, warmup: int = 2
 ) -> list[float]:
     """Median wall milliseconds of each of `runs`, measured in turn within every repetition so
     that a machine's drift (other load, clocks) falls on all of them alike."""

@@ -198,7 +198,7 @@ def mesh_from_triangles(
     positions = positions[source]
     report = check_uvs(coords, indices)
     texture_uvs = coords if base_colour_image is not None else None
-    if not report.ok:
+    if not report.ok or coords is None:  # (no coordinates: report.ok is False)
         warnings.warn(
             f"{name}: texture coordinates are {report.describe()}; re-atlasing", stacklevel=2
         )
@@ -212,12 +212,12 @@ def mesh_from_triangles(
         base_colour_image = None  # an image without coordinates to sample it by
     mesh = Mesh(
         Path(name).stem,
-        positions,
-        normals,
-        coords,
-        indices,
+        positions.astype(np.float32),
+        normals.astype(np.float32),
+        coords.astype(np.float32),
+        indices.astype(np.uint32),
         base_colour_image=base_colour_image,
-        texture_uvs=texture_uvs,
+        texture_uvs=None if texture_uvs is None else texture_uvs.astype(np.float32),
     )
     if len(mesh.indices) == 0:
         raise DentdemoError(

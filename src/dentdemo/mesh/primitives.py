@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dentdemo.mesh.mesh import Bound, Mesh
 
@@ -55,7 +56,7 @@ def plate(side: float, subdivisions: int = 8) -> Mesh:
         "plate",
         pos,
         normals,
-        uv,
+        uv.astype(np.float32),
         _grid_indices(n, n, 0),
         bound=Bound(triangles=faces),
     )
@@ -89,7 +90,10 @@ def sphere(radius: float, subdivisions: int = 32) -> Mesh:
 
 
 def _cube_atlas(name: str, n: int, place, curved: bool) -> Mesh:
-    positions, normals, uvs, indices = [], [], [], []
+    positions: list[NDArray[np.float64]] = []
+    normals: list[NDArray[np.float64]] = []
+    uvs: list[NDArray[np.float64]] = []
+    indices: list[NDArray[np.integer]] = []
     grid = np.linspace(-1.0, 1.0, n + 1)
     t, s = np.meshgrid(grid, grid, indexing="ij")
     s, t = s.ravel()[:, None], t.ravel()[:, None]
@@ -118,7 +122,10 @@ def _revolve(
     lengths = [float(np.hypot(np.diff(r), np.diff(z)).sum()) for r, z, _ in segments]
     total = sum(lengths)
     phi = np.linspace(0.0, 2 * math.pi, around + 1)
-    positions, normals, uvs, indices = [], [], [], []
+    positions: list[NDArray[np.float64]] = []
+    normals: list[NDArray[np.float64]] = []
+    uvs: list[NDArray[np.float64]] = []
+    indices: list[NDArray[np.integer]] = []
     v_start = 0.0
     for (r, z, nrz), length in zip(segments, lengths, strict=True):
         arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(r), np.diff(z)))]) / max(

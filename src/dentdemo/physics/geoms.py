@@ -11,14 +11,14 @@ from numpy.typing import NDArray
 
 from dentdemo.model.scene import BodySpec
 from dentdemo.model.shapes import Box, Capsule, Cylinder, MeshFile, Plane, Plate, Sphere
-from dentdemo.physics.ode import ode
+from dentdemo.physics.ode import Handle, ode
 
 Triangles = tuple[NDArray, NDArray]
 
 
 def make_geom(
-    space: object, spec: BodySpec, mesh_arrays: Triangles | None
-) -> tuple[object, list, NDArray[np.float64]]:
+    space: Handle, spec: BodySpec, mesh_arrays: Triangles | None
+) -> tuple[Handle, list, NDArray[np.float64]]:
     """(geom in `space`, the buffers ODE keeps pointing into, centre-of-mass offset in body
     space, metres). A mesh shape needs (positions (n, 3) m, indices (m, 3)) in body space."""
     keep: list = []
@@ -47,8 +47,8 @@ def make_geom(
 
 
 def body_mass(
-    spec: BodySpec, geom: object, mesh_arrays: Triangles | None, com: NDArray[np.float64]
-) -> tuple[object, NDArray[np.float64]]:
+    spec: BodySpec, geom: Handle, mesh_arrays: Triangles | None, com: NDArray[np.float64]
+) -> tuple[Handle, NDArray[np.float64]]:
     """(ODE mass about the body's centre of mass, that centre's offset in body space). A mesh
     must enclose a volume; the mass must come out positive and finite."""
     shape, rho = spec.shape, spec.material.density  # kg/m^3
@@ -82,13 +82,13 @@ def body_mass(
     return mass, com
 
 
-def destroy_geom(geom: object, keep: list) -> None:
+def destroy_geom(geom: Handle, keep: list) -> None:
     ode.dGeomDestroy(geom)
     if keep:
         ode.dGeomTriMeshDataDestroy(keep[2])
 
 
-def _trimesh(space: object, positions: NDArray, indices: NDArray) -> tuple[object, list]:
+def _trimesh(space: Handle, positions: NDArray, indices: NDArray) -> tuple[Handle, list]:
     verts = np.ascontiguousarray(positions, dtype=np.float64)
     tris = np.ascontiguousarray(indices, dtype=np.uint32)
     data = ode.dGeomTriMeshDataCreate()

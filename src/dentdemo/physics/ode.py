@@ -13,9 +13,14 @@ import os
 import platform
 import sys
 from types import ModuleType
+from typing import Any
 
 from dentdemo import log
 from dentdemo.errors import PhysicsLibraryError
+
+#: An ODE object as odepy hands it out (a ctypes pointer or structure: a dWorldID, dGeomID,
+#: dBodyID, dMass, dContactGeom ...). odepy ships no type information, so this is Any.
+Handle = Any
 
 #: Every ODE function dentdemo calls.
 REQUIRED_SYMBOLS = (

@@ -13,14 +13,14 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from dentdemo import interrupt
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
 from dentdemo.model.shapes import MeshFile, Plane
 from dentdemo.physics.geoms import body_mass, destroy_geom, make_geom
-from dentdemo.physics.ode import fast, ode
+from dentdemo.physics.ode import Handle, fast, ode
 
 MAX_CONTACTS = 8
 #: Constraint force mixing: near-rigid contacts. A soft CFM damps bounces more the smaller the
@@ -86,8 +86,8 @@ class Impact:
 @dataclass
 class _Body:
     spec: BodySpec
-    geom: object
-    body: object | None  # None for static
+    geom: Handle
+    body: Handle | None  # None for static
     mass: float  # kg, inf when static
     com_offset: NDArray[np.float64]
     keep_alive: list = field(default_factory=list)  # ctypes buffers ODE points into
@@ -118,7 +118,7 @@ def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
     )
 
 
-def _addr(ptr: object) -> int:
+def _addr(ptr: Handle) -> int:
     return ctypes.cast(ptr, ctypes.c_void_p).value or 0
 
 
@@ -219,7 +219,7 @@ class PhysicsWorld:
             ode.dGeomSetQuaternion(record.geom, qd)
 
     def set_velocity(
-        self, body_id: str, linear: NDArray, angular: NDArray = (0.0, 0.0, 0.0)
+        self, body_id: str, linear: ArrayLike, angular: ArrayLike = (0.0, 0.0, 0.0)
     ) -> None:
         record = self.bodies[body_id]
         if record.body is not None:
@@ -354,7 +354,7 @@ class PhysicsWorld:
         # ODE's normal points into g1: from body A = owner of g2 towards body B = owner of g1.
         self._record(r2, r1, deepest)
 
-    def _record(self, a: _Body, b: _Body, geom: object) -> None:
+    def _record(self, a: _Body, b: _Body, geom: Handle) -> None:
         px, py, pz = geom.pos[0], geom.pos[1], geom.pos[2]
         nx, ny, nz = geom.normal[0], geom.normal[1], geom.normal[2]
         va, vb = self._point_velocity(a, px, py, pz), self._point_velocity(b, px, py, pz)
@@ -363,11 +363,17 @@ class PhysicsWorld:
             return  # resting or separating: not an impact
         point = np.array([px, py, pz], dtype=np.float64)
         normal = np.array([nx, ny, nz], dtype=np.float64)
-        va, vb = np.array(va, dtype=np.float64), np.array(vb, dtype=np.float64)
+        vel_a, vel_b = np.array(va, dtype=np.float64), np.array(vb, dtype=np.float64)
         inv_a = 0.0 if a.body is None else 1.0 / a.mass
         inv_b = 0.0 if b.body is None else 1.0 / b.mass
         j, j1 = pair_impulses(
-            normal, va, vb, inv_a, inv_b, a.spec.material.restitution, b.spec.material.restitution
+            normal,
+            vel_a,
+            vel_b,
+            inv_a,
+            inv_b,
+            a.spec.material.restitution,
+            b.spec.material.restitution,
         )
         key = (a.spec.id, b.spec.id)
         if key in self._pending and self._pending[key].j_elastic >= float(j1):
@@ -380,8 +386,8 @@ class PhysicsWorld:
             point=point,
             normal=normal,
             depth=float(geom.depth),
-            vel_a=va,
-            vel_b=vb,
+            vel_a=vel_a,
+            vel_b=vel_b,
             mass_a=a.mass,
             mass_b=b.mass,
             eps_a=a.spec.material.restitution,

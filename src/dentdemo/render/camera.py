@@ -8,14 +8,14 @@ from dataclasses import dataclass
 
 import numpy as np
 import pyrr
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 Mat4 = NDArray[np.float64]
 #: The view's near and far planes, metres from the eye.
 NEAR, FAR = 0.02, 50.0
 
 
-def look_at(eye: NDArray, target: NDArray, up: NDArray = (0.0, 1.0, 0.0)) -> Mat4:
+def look_at(eye: ArrayLike, target: ArrayLike, up: ArrayLike = (0.0, 1.0, 0.0)) -> Mat4:
     """View matrix (camera from world)."""
     return np.asarray(
         pyrr.matrix44.create_look_at(
@@ -51,7 +51,7 @@ class OrbitCamera:
     fov_deg: float = 45.0
 
     @classmethod
-    def from_eye(cls, eye: NDArray, target: NDArray, fov_deg: float = 45.0) -> OrbitCamera:
+    def from_eye(cls, eye: ArrayLike, target: ArrayLike, fov_deg: float = 45.0) -> OrbitCamera:
         offset = np.asarray(eye, float) - np.asarray(target, float)
         distance = float(np.linalg.norm(offset))
         return cls(

@@ -42,7 +42,8 @@ def environment(gl: GLContext, sun_dir: tuple[float, float, float]) -> Environme
 
 def _bake(gl: GLContext, sun_dir: np.ndarray) -> Environment:
     ctx = gl.ctx
-    sun = tuple(float(x) for x in sun_dir / np.linalg.norm(sun_dir))
+    sx, sy, sz = sun_dir / np.linalg.norm(sun_dir)
+    sun = (float(sx), float(sy), float(sz))
     out = []
     for irradiance, size, rows, samples in (
         (0, LEVEL_SIZE, LEVELS, SPECULAR_SAMPLES),

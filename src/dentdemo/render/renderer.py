@@ -85,7 +85,7 @@ class Renderer:
     ) -> moderngl.Program:
         """The body shader variant for these options, for bodies with or without their own
         base-colour image, or for the ground (compile-time switches: no cost when off)."""
-        defines = {
+        defines: dict[str, object] = {
             "PARALLAX": int(options.parallax),
             "VIEW": int(options.view),
             "SHADOW_TAPS": self.quality.shadow_taps,
@@ -186,7 +186,7 @@ class Renderer:
         # Sky: last, at the far plane, so that only the pixels no body covers run its shader.
         ctx.disable(moderngl.CULL_FACE)
         ctx.depth_func = "<="
-        ctx.depth_mask = False
+        self.msaa.depth_mask = False  # (moderngl's Context has no depth_mask: a framebuffer's)
         _matrix(self._sky, "u_inverse_view_proj", np.linalg.inv(view_proj))
         _set(self._sky, "u_viewport", self.shade_size)
         _set(self._sky, "u_exposure", EXPOSURE)
@@ -195,7 +195,7 @@ class Renderer:
         _set(self._sky, "u_radiance", 3)
         env.radiance.use(3)
         self._empty_sky.render(moderngl.TRIANGLES, vertices=3)
-        ctx.depth_mask = True
+        self.msaa.depth_mask = True
         ctx.depth_func = "<"
         if options.contacts and len(description.lines):
             self._draw_lines(description.lines, frame)
@@ -326,8 +326,7 @@ def _level(item: DrawItem, metres_per_pixel: float) -> GpuMesh:
 
 def _matrix(prog: moderngl.Program, name: str, m: np.ndarray) -> None:
     """A 4x4 or 3x3 matrix (column-vector convention) into a mat4 or mat3 uniform, if used."""
-    if name in prog:
-        prog[name].write(np.asarray(m, dtype="f4").T.tobytes())
+    _set(prog, name, np.asarray(m, dtype="f4").T.tobytes())
 
 
 def _uniforms(prog: moderngl.Program, values: dict) -> None:
