@@ -17,6 +17,11 @@ class ConfigError(DentdemoError):
         super().__init__(text)
 
 
+class ArgumentError(DentdemoError, ValueError):
+    """A library call got a bad argument; the message names the argument and its value. A
+    ValueError for a host program, a one-line message for the CLI."""
+
+
 class GLUnavailableError(DentdemoError):
     """No OpenGL 3.3 core context could be made."""
 

@@ -12,10 +12,31 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.errors import ArgumentError
+
+
+def _positive(value: object) -> bool:
+    """Whether `value` is a positive finite real number (not a bool)."""
+    real = isinstance(value, int | float | np.floating | np.integer)
+    return real and not isinstance(value, bool) and math.isfinite(value) and value > 0  # type: ignore[arg-type, operator]
+
+
+def _size(shape: object, name: str, value: object) -> None:
+    """Check that field `name` of `shape` is a positive finite number of metres; store a float."""
+    if not _positive(value):
+        raise ArgumentError(
+            f"{type(shape).__name__} {name} must be a positive finite number of metres, "
+            f"got {value!r}"
+        )
+    object.__setattr__(shape, name, float(value))  # type: ignore[arg-type]
+
 
 @dataclass(frozen=True)
 class Sphere:
     radius: float
+
+    def __post_init__(self) -> None:
+        _size(self, "radius", self.radius)
 
     def volume(self) -> float:
         return 4.0 / 3.0 * math.pi * self.radius**3
@@ -28,6 +49,15 @@ class Sphere:
 class Box:
     #: Full extents along local x, y, z.
     size: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        edges = list(self.size) if _sequence(self.size) else []
+        if len(edges) != 3 or not all(_positive(x) for x in edges):
+            raise ArgumentError(
+                "Box size must be 3 positive finite edge lengths (x, y, z) in metres, "
+                f"got {self.size!r}"
+            )
+        object.__setattr__(self, "size", tuple(float(x) for x in edges))
 
     def volume(self) -> float:
         return float(np.prod(self.size))
@@ -42,6 +72,10 @@ class Capsule:
 
     radius: float
     length: float
+
+    def __post_init__(self) -> None:
+        _size(self, "radius", self.radius)
+        _size(self, "length", self.length)
 
     def volume(self) -> float:
         r = self.radius
@@ -58,6 +92,10 @@ class Cylinder:
     radius: float
     length: float
 
+    def __post_init__(self) -> None:
+        _size(self, "radius", self.radius)
+        _size(self, "length", self.length)
+
     def volume(self) -> float:
         return math.pi * self.radius**2 * self.length
 
@@ -71,6 +109,10 @@ class Plate:
 
     side: float
     thickness: float = 0.02
+
+    def __post_init__(self) -> None:
+        _size(self, "side", self.side)
+        _size(self, "thickness", self.thickness)
 
     def volume(self) -> float:
         return self.side * self.side * self.thickness
@@ -97,11 +139,45 @@ class MeshFile:
     path: str
     scale: float = 1.0
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.path, str) or not self.path:
+            raise ArgumentError(f"MeshFile path must be a file name, got {self.path!r}")
+        try:
+            _size(self, "scale", self.scale)
+        except ArgumentError:
+            raise ArgumentError(
+                f"MeshFile scale must be a positive finite number, got {self.scale!r}"
+            ) from None
+
     def volume(self) -> float:
         return 0.0
 
     def bounding_radius(self) -> float:
         return math.inf
+
+
+#: The largest share of its area a mesh's holes may span for it to count as enclosing a volume
+#: (a dynamic body's mass comes from that volume): scanning holes pass, a sheet or a bowl does not.
+MAX_OPEN_SHARE = 0.01
+
+
+def mesh_volume(positions: NDArray, indices: NDArray) -> tuple[float, float]:
+    """(volume, open share) of a triangle mesh. The volume, m^3, is signed (positive for
+    outward faces) and taken about the mesh's bounding-box centre. The open share is
+    |sum of the triangles' vector areas| / their total area: 0 for a closed surface (the vector
+    areas of a closed surface cancel), 1 for a flat sheet; a mesh with holes has a volume that
+    depends on the point it is taken about, by up to about this share."""
+    p = np.asarray(positions, dtype=np.float64)
+    p = (p - (p.min(axis=0) + p.max(axis=0)) / 2)[np.asarray(indices, dtype=np.int64)]
+    doubled = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # twice each vector area
+    total = float(np.linalg.norm(doubled, axis=1).sum())
+    open_share = float(np.linalg.norm(doubled.sum(axis=0))) / total if total > 0 else 1.0
+    volume = float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0)
+    return volume, open_share
+
+
+def _sequence(value: object) -> bool:
+    return isinstance(value, tuple | list | np.ndarray)
 
 
 Shape = Sphere | Box | Capsule | Cylinder | Plate | Plane | MeshFile

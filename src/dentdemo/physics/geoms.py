@@ -10,7 +10,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.model.scene import BodySpec
-from dentdemo.model.shapes import Box, Capsule, Cylinder, MeshFile, Plane, Plate, Sphere
+from dentdemo.model.shapes import (
+    MAX_OPEN_SHARE,
+    Box,
+    Capsule,
+    Cylinder,
+    MeshFile,
+    Plane,
+    Plate,
+    Sphere,
+    mesh_volume,
+)
 from dentdemo.physics.ode import Handle, ode
 
 Triangles = tuple[NDArray, NDArray]
@@ -53,12 +63,17 @@ def body_mass(
     must enclose a volume; the mass must come out positive and finite."""
     shape, rho = spec.shape, spec.material.density  # kg/m^3
     if isinstance(shape, MeshFile):
-        volume = _enclosed_volume(*mesh_arrays) if mesh_arrays is not None else 0.0
-        if not volume > 1e-12:
+        volume, open_share = mesh_volume(*mesh_arrays) if mesh_arrays is not None else (0.0, 1.0)
+        if open_share > MAX_OPEN_SHARE or not volume > 1e-12:
+            why = (
+                f"open: its holes span {open_share:.0%} of its area, at most "
+                f"{MAX_OPEN_SHARE:.0%} allowed"
+                if open_share > MAX_OPEN_SHARE
+                else f"{volume:.3g} m^3: flat or inside out"
+            )
             raise ValueError(
-                f"mesh {Path(shape.path).name} encloses no volume ({volume:.3g} m^3; "
-                "not closed or inside out): a dynamic body needs one for its mass; "
-                "make it static or close the mesh"
+                f"mesh {Path(shape.path).name} encloses no volume ({why}): a dynamic body needs "
+                "one for its mass; make it static (static = true) or close the mesh"
             )
     mass = ode.dMass()
     ref = ctypes.byref(mass)
@@ -103,9 +118,3 @@ def _trimesh(space: Handle, positions: NDArray, indices: NDArray) -> tuple[Handl
     )
     null = (ode.dTriCallback(), ode.dTriArrayCallback(), ode.dTriRayCallback())
     return ode.dCreateTriMesh(space, data, *null), [verts, tris, data]
-
-
-def _enclosed_volume(positions: NDArray, indices: NDArray) -> float:
-    """Signed volume of a triangle mesh, m^3 (positive for a closed, outward-facing mesh)."""
-    p = np.asarray(positions, dtype=np.float64)[np.asarray(indices, dtype=np.int64)]
-    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0)
