@@ -5,6 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
+import trimesh
 
 from dentdemo.errors import DentdemoError
 from dentdemo.mesh import primitives
@@ -71,7 +72,6 @@ def test_check_uvs_finds_tiled_and_overlapping():
 
 
 def test_loaded_mesh_without_uvs_is_reatlased(tmp_path):
-    trimesh = pytest.importorskip("trimesh", reason="trimesh is a declared dependency")
     path = tmp_path / "ball.obj"
     trimesh.creation.icosphere(subdivisions=2, radius=0.1).export(path)
     with warnings.catch_warnings(record=True) as caught:

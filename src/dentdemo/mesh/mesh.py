@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.errors import ArgumentError
+
 F32 = NDArray[np.float32]
 #: Triangles per cluster of `Mesh.clusters`.
 CLUSTER_SIZE = 32
@@ -41,7 +43,15 @@ class Bound:
 
 @dataclass
 class Mesh:
-    """An indexed triangle mesh; faces wind counter-clockwise seen from outside."""
+    """An indexed triangle mesh in local metres; faces wind counter-clockwise seen from outside.
+
+    `tangents` (n, 4) give each vertex's tangent frame, the one the normal map is expressed in:
+    xyz is the unit tangent T along +u (orthogonal to the normal N), w = +1 or -1 the handedness,
+    and the bitangent is B = cross(N, T) * w (along +v). A texel's normal m (xyz * 2 - 1 of
+    `DentableSurface.normal`) is T m.x + B m.y + N m.z. `source_vertex` (n,) is, for each vertex,
+    the index of the caller's vertex it copies (`mesh_from_triangles` splits vertices along
+    seams and creases), so that a host can map its own per-vertex data onto this mesh.
+    """
 
     name: str
     positions: F32  # (n, 3) local metres
@@ -56,14 +66,20 @@ class Mesh:
     #: Where that image is sampled: the file's texture coordinates (n, 2), which may tile or
     #: overlap (the carve's atlas is `uvs`). None: `uvs`.
     texture_uvs: F32 | None = None
+    #: The caller's vertex each vertex copies (None: vertex i is the caller's i).
+    source_vertex: NDArray[np.int64] = field(default=None)  # type: ignore[arg-type]
 
     def __post_init__(self) -> None:
+        _check_arrays(self)
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float32)
         self.normals = np.ascontiguousarray(self.normals, dtype=np.float32)
         self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float32)
         if self.texture_uvs is not None:
             self.texture_uvs = np.ascontiguousarray(self.texture_uvs, dtype=np.float32)
         self.indices = np.ascontiguousarray(self.indices, dtype=np.uint32).reshape(-1, 3)
+        if self.source_vertex is None:
+            self.source_vertex = np.arange(len(self.positions), dtype=np.int64)
+        self.source_vertex = np.ascontiguousarray(self.source_vertex, dtype=np.int64)
         self._drop_degenerate()
         self._orient_outward()
         if self.tangents is None:
@@ -247,6 +263,49 @@ class Mesh:
         vert_n = self.normals.astype(np.float64)[self.indices].sum(axis=1)
         flip = (face_n * vert_n).sum(axis=1) < 0
         self.indices[flip] = self.indices[flip][:, ::-1]
+
+
+def _check_arrays(mesh: Mesh) -> None:
+    """One clear error for arrays of the wrong shape, non-finite values or indices out of range."""
+
+    def array(name: str, columns: int) -> NDArray:
+        value = getattr(mesh, name)
+        try:
+            data = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            data = np.zeros((0, 0))
+        if data.ndim != 2 or data.shape[1] != columns or not np.isfinite(data).all():
+            shown = getattr(value, "shape", None) or type(value).__name__
+            raise ArgumentError(
+                f"Mesh {name} must be an (n, {columns}) array of finite numbers, got {shown}"
+            )
+        return data
+
+    n = len(array("positions", 3))
+    optional = [("texture_uvs", 2), ("tangents", 4)]
+    for name, columns in [("normals", 3), ("uvs", 2), *optional]:
+        if getattr(mesh, name) is None and (name, columns) in optional:
+            continue
+        if len(array(name, columns)) != n:
+            raise ArgumentError(
+                f"Mesh {name} must have one row per position ({n}), got {len(getattr(mesh, name))}"
+            )
+    check_indices("Mesh indices", mesh.indices, n)
+
+
+def check_indices(what: str, indices: object, vertices: int) -> NDArray[np.int64]:
+    """`indices` as an (m, 3) int64 array of vertex numbers below `vertices`, or an error
+    naming `what` and the offending value."""
+    data = np.asarray(indices)
+    if data.size == 0 or data.dtype.kind not in "iu" or data.size % 3 or data.ndim > 2:
+        raise ArgumentError(
+            f"{what} must be (m, 3) integers, got {data.dtype} of shape {data.shape}"
+        )
+    out = data.astype(np.int64).reshape(-1, 3)
+    if out.min() < 0 or out.max() >= vertices:
+        bad = int(out.min()) if out.min() < 0 else int(out.max())
+        raise ArgumentError(f"{what} must lie in [0, {vertices - 1}], got {bad}")
+    return out
 
 
 def _morton_order(points: NDArray[np.float64]) -> NDArray[np.int64]:

@@ -1,0 +1,199 @@
+"""Meshes a host brings: their own texture coordinates are kept (OBJ and glTF, with or without a
+material, Draco-compressed or not), every vertex maps back to the host's (`Mesh.source_vertex`),
+undecodable glTF is a clear error, and bad arrays are named. Expected values come from the
+arrays the test wrote."""
+
+from __future__ import annotations
+
+import json
+import struct
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from dentdemo.errors import ArgumentError, DentdemoError
+from dentdemo.mesh.loader import check_uvs, load_mesh, mesh_from_triangles
+from mesh_helpers import glb, gltf, grid
+
+
+def _cube() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A unit cube of 8 shared corners (its hard edges split every corner into 3 vertices)
+    with a per-corner uv that is not a unique atlas (all 8 corners over one square)."""
+    box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    uv = (box.vertices[:, :2] > 0).astype(float) * 0.8 + 0.1
+    return np.asarray(box.vertices), np.asarray(box.faces), uv
+
+
+def _write_glb(path: Path, doc: dict, blob: bytes) -> Path:
+    path.write_bytes(glb(doc, blob))
+    return path
+
+
+def _load_quietly(path: Path):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = load_mesh(path)
+    return mesh, [str(w.message) for w in caught]
+
+
+def _matches_file(mesh, pos: np.ndarray, uv: np.ndarray) -> None:
+    """Each vertex of `mesh` is the file's vertex `source_vertex` with that vertex's own uv."""
+    np.testing.assert_array_equal(mesh.positions, pos.astype(np.float32)[mesh.source_vertex])
+    np.testing.assert_allclose(mesh.uvs, uv[mesh.source_vertex], atol=1e-6)
+
+
+@pytest.mark.parametrize("material", [False, True], ids=["no_material", "material"])
+def test_glb_keeps_its_own_uvs_with_or_without_a_material(tmp_path, material):
+    pos, faces, uv = grid()
+    path = _write_glb(tmp_path / "grid.glb", *gltf(pos, faces, uv, material))
+    mesh, caught = _load_quietly(path)
+    assert caught == []  # no "texture coordinates are missing; re-atlasing"
+    # glTF puts v = 0 at the image's top; the mesh's v = 0 is texture row 0 (OpenGL).
+    _matches_file(mesh, pos, np.stack([uv[:, 0], 1.0 - uv[:, 1]], 1))
+    assert len(mesh.indices) == len(faces)
+
+
+def test_gltf_with_an_external_buffer_keeps_its_uvs(tmp_path):
+    pos, faces, uv = grid()
+    doc, blob = gltf(pos, faces, uv, material=False)
+    doc["buffers"][0]["uri"] = "grid.bin"
+    (tmp_path / "grid.bin").write_bytes(blob)
+    (tmp_path / "grid.gltf").write_text(json.dumps(doc))
+    mesh, caught = _load_quietly(tmp_path / "grid.gltf")
+    assert caught == []
+    _matches_file(mesh, pos, np.stack([uv[:, 0], 1.0 - uv[:, 1]], 1))
+
+
+@pytest.mark.parametrize("mtl", [False, True], ids=["no_mtl", "mtl"])
+def test_obj_keeps_its_own_uvs_with_or_without_a_material(tmp_path, mtl):
+    pos, faces, uv = grid()
+    head = "mtllib m.mtl\nusemtl paint\n" if mtl else ""
+    if mtl:
+        (tmp_path / "m.mtl").write_text("newmtl paint\nKd 0.8 0.2 0.1\n")
+    text = head + "".join(f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in pos)
+    text += "".join(f"vt {a:.17g} {b:.17g}\n" for a, b in uv)
+    text += "".join(f"f {a}/{a} {b}/{b} {c}/{c}\n" for a, b, c in faces + 1)
+    (tmp_path / "grid.obj").write_text(text)
+    mesh, caught = _load_quietly(tmp_path / "grid.obj")
+    assert caught == []
+    _matches_file(mesh, pos, uv)
+
+
+def _draco_glb(tmp_path: Path) -> tuple[Path, np.ndarray, np.ndarray]:
+    """A real Draco-compressed GLB (trimesh's exporter, DracoPy's encoder, 14-bit positions) of
+    the grid with its uvs: path, positions, uvs."""
+    pos, faces, uv = grid(8)
+    mesh = trimesh.Trimesh(pos, faces, visual=trimesh.visual.TextureVisuals(uv=uv), process=False)
+    path = tmp_path / "draco.glb"
+    path.write_bytes(mesh.export(file_type="glb", extension_draco=True))
+    return path, pos, uv
+
+
+def _json_of(path: Path) -> dict:
+    data = path.read_bytes()
+    return json.loads(data[20 : 20 + struct.unpack_from("<I", data, 12)[0]])
+
+
+def test_draco_compressed_glb_is_decoded_with_its_uvs(tmp_path):
+    path, pos, uv = _draco_glb(tmp_path)
+    doc = _json_of(path)
+    assert doc["extensionsRequired"] == ["KHR_draco_mesh_compression"]
+    assert all("bufferView" not in a for a in doc["accessors"])  # no uncompressed fallback
+    mesh, caught = _load_quietly(path)
+    assert caught == []
+    # Positions within Draco's 14-bit quantisation of the 0.2 m extent: 0.2 * 2^-15 m.
+    error = np.abs(mesh.positions - pos[mesh.source_vertex]).max()
+    assert error <= 0.2 * 2.0**-15 + 1e-7
+    np.testing.assert_allclose(mesh.uvs, uv[mesh.source_vertex], atol=1e-4)
+    assert mesh.surface_area() == pytest.approx(0.04, rel=1e-3)
+
+
+def test_draco_without_its_decoder_is_a_clear_error(tmp_path, monkeypatch):
+    """A broken install (DracoPy missing): the message names the extension and the package,
+    not "every triangle has no area"."""
+    path, _, _ = _draco_glb(tmp_path)
+    monkeypatch.setitem(sys.modules, "DracoPy", None)  # `import DracoPy` raises ImportError
+    with pytest.raises(DentdemoError, match="KHR_draco_mesh_compression") as info:
+        load_mesh(path)
+    assert "draco.glb" in str(info.value) and "DracoPy" in str(info.value)
+
+
+def test_corrupt_draco_data_is_a_clear_error(tmp_path):
+    pos, faces, uv = grid()
+    doc, blob = gltf(pos, faces, uv, material=False)
+    doc["extensionsUsed"] = doc["extensionsRequired"] = ["KHR_draco_mesh_compression"]
+    doc["meshes"][0]["primitives"][0]["extensions"] = {
+        "KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}
+    }
+    for accessor in doc["accessors"]:
+        del accessor["bufferView"]  # buffer view 0 now holds plain floats, not a Draco stream
+    path = _write_glb(tmp_path / "corrupt.glb", doc, blob)
+    with pytest.raises(DentdemoError, match="corrupt.glb: its KHR_draco_mesh_compression data"):
+        load_mesh(path)
+
+
+def test_meshopt_compressed_glb_is_a_clear_error(tmp_path):
+    pos, faces, uv = grid()
+    doc, blob = gltf(pos, faces, uv, material=False)
+    doc["extensionsUsed"] = doc["extensionsRequired"] = ["EXT_meshopt_compression"]
+    path = _write_glb(tmp_path / "meshopt.glb", doc, blob)
+    with pytest.raises(DentdemoError, match="meshopt.glb: .*EXT_meshopt_compression"):
+        load_mesh(path)
+
+
+def test_host_vertices_map_back_through_seams_creases_and_a_reatlas():
+    """A cube of 8 shared corners: its hard edges split each corner into 3 vertices, and its
+    uvs are re-atlased; every vertex still names the host corner it copies."""
+    pos, faces, uv = _cube()
+    with pytest.warns(UserWarning, match="re-atlasing"):
+        mesh = mesh_from_triangles(pos, faces, uv)
+    assert len(mesh.positions) > len(pos)  # split
+    np.testing.assert_array_equal(mesh.positions, pos.astype(np.float32)[mesh.source_vertex])
+    assert set(mesh.source_vertex.tolist()) == set(range(len(pos)))
+    # The host's per-vertex data carries over: here, which octant each corner is in.
+    octant = (pos > 0) @ [1, 2, 4]
+    assert np.array_equal(octant[mesh.source_vertex], (mesh.positions > 0) @ [1, 2, 4])
+    # Each triangle of the new mesh is a host triangle with the same corners.
+    host = {tuple(sorted(f)) for f in faces.tolist()}
+    ours = {tuple(sorted(mesh.source_vertex[f])) for f in mesh.indices.astype(int).tolist()}
+    assert ours == host
+
+
+def test_valid_uvs_are_kept_and_vertices_map_back():
+    pos, faces, uv = grid()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no re-atlas
+        mesh = mesh_from_triangles(pos, faces, uv)
+    _matches_file(mesh, pos, uv)
+    assert check_uvs(mesh.uvs, mesh.indices).ok
+
+
+@pytest.mark.parametrize(
+    ("positions", "indices", "uvs", "fragment"),
+    [
+        (
+            np.zeros((3, 2)),
+            [[0, 1, 2]],
+            None,
+            "positions must be an (n, 3) array, got shape (3, 2)",
+        ),
+        (np.eye(3) * np.nan, [[0, 1, 2]], None, "positions are not finite"),
+        ("abc", [[0, 1, 2]], None, "positions must be an (n, 3) array, got 'abc'"),
+        (np.eye(3), [[0, 1, 3]], None, "indices must lie in [0, 2], got 3"),
+        (np.eye(3), [[0, 1, -1]], None, "indices must lie in [0, 2], got -1"),
+        (np.eye(3), [[0.0, 1.0, 2.0]], None, "indices must be (m, 3) integers, got float64"),
+        (np.eye(3), [[0, 1]], None, "indices must be (m, 3) integers"),
+        (np.eye(3), [[0, 1, 2]], np.zeros((2, 2)), "uvs must have one row per position (3), got 2"),
+        (np.eye(3), [[0, 1, 2]], np.zeros((3, 3)), "uvs must be an (n, 2) array"),
+        (np.eye(3), [[0, 1, 2]], np.full((3, 2), np.inf), "uvs are not finite"),
+    ],
+)
+def test_mesh_from_triangles_names_a_bad_array(positions, indices, uvs, fragment):
+    with pytest.raises(ValueError) as info:
+        mesh_from_triangles(positions, indices, uvs, name="host")
+    assert isinstance(info.value, ArgumentError)
+    assert str(info.value).startswith("host: ") and fragment in str(info.value)
