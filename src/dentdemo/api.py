@@ -1,30 +1,140 @@
 """The types a host program needs to carve dents in its own moderngl context (re-exported by
-`dentdemo`). Every call here leaves the host's GL state as it found it."""
+`dentdemo`). Every call here leaves the host's GL state as it found it. A bad argument raises
+ValueError (dentdemo.errors.ArgumentError) naming the argument and its value."""
 
 from __future__ import annotations
 
+import math
+import numbers
+import os
+import sys
+from pathlib import Path
+
 import moderngl
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody
 from dentdemo.carve.carver import Carver as _Carver
-from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps
+from dentdemo.carve.surface import (
+    MAX_MAP_SIZE,
+    MIN_MAP_SIZE,
+    GpuMesh,
+    SurfaceMaps,
+    create_maps,
+    load_height_png,
+    rebuild_all_normals,
+)
+from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.gl.context import GLContext
 from dentdemo.gl.state import preserved
 from dentdemo.mesh.mesh import Mesh
 
 
+def _vector(name: str, value: object) -> NDArray[np.float64]:
+    """`value` as 3 finite float64 numbers, or an error naming `name` and the value."""
+    try:
+        data = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        data = np.zeros(0)
+    if data.shape != (3,) or not np.isfinite(data).all():
+        raise ArgumentError(f"{name} must be 3 finite numbers (x, y, z), got {value!r}")
+    return data
+
+
+def _real(name: str, value: object, what: str) -> float:
+    """`value` as a finite float >= 0, or an error naming `name`, the value and `what` it is."""
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        number = float(value)
+        if math.isfinite(number) and number >= 0:
+            return number
+    raise ArgumentError(f"{name} must be {what}, got {value!r}")
+
+
+def _pose(name: str, value: object) -> NDArray[np.float64]:
+    """`value` as a 4x4 float64 pose (world from local, metres): finite, affine (last row
+    0 0 0 1), its 3x3 part invertible and not mirroring (a mirror turns the faces inside out)."""
+    try:
+        m = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        m = np.zeros(0)
+    if m.shape != (4, 4):
+        shown = f"shape {m.shape}" if m.size else repr(value)
+        raise ArgumentError(f"{name} must be a 4x4 matrix (world from local, metres), got {shown}")
+    if not np.isfinite(m).all():
+        row, col = (int(i) for i in np.argwhere(~np.isfinite(m))[0])
+        raise ArgumentError(f"{name} must be finite, got {m[row, col]} at row {row}, column {col}")
+    if not np.allclose(m[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=1e-9):
+        raise ArgumentError(f"{name} must be affine (last row 0 0 0 1), got {m[3].tolist()}")
+    det = float(np.linalg.det(m[:3, :3]))
+    if not det > 1e-18:
+        raise ArgumentError(
+            f"{name} must not flatten or mirror the mesh: its 3x3 part has determinant {det:g} "
+            "(mirror the vertices instead)"
+        )
+    return m
+
+
+def _map_size(value: object) -> int:
+    whole = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    if not (whole and MIN_MAP_SIZE <= int(value) <= MAX_MAP_SIZE):  # type: ignore[call-overload]
+        raise ArgumentError(
+            f"map_size must be a whole number of texels from {MIN_MAP_SIZE} to {MAX_MAP_SIZE} "
+            f"(the largest map), got {value!r}"
+        )
+    return int(value)  # type: ignore[call-overload]
+
+
+def _as_mesh(mesh: object) -> Mesh:
+    """A Mesh as is; a trimesh.Trimesh converted (its texture coordinates kept where they are a
+    unique atlas, as load_mesh does)."""
+    if isinstance(mesh, Mesh):
+        return mesh
+    trimesh = sys.modules.get("trimesh")  # a Trimesh comes with its module already imported
+    if trimesh is not None and isinstance(mesh, trimesh.Trimesh):
+        from dentdemo.mesh.loader import mesh_from_trimesh
+
+        return mesh_from_trimesh(mesh, name=str(mesh.metadata.get("name") or "trimesh mesh"))
+    if trimesh is not None and isinstance(mesh, trimesh.Scene):
+        raise ArgumentError(
+            f"mesh must be one mesh, got a trimesh.Scene of {len(mesh.geometry)} geometries: "
+            "pass scene.to_geometry(), or load the file with dentdemo.load_mesh"
+        )
+    raise ArgumentError(
+        f"mesh must be a dentdemo.Mesh or a trimesh.Trimesh, got {type(mesh).__name__}"
+    )
+
+
 class Contact:
     """Where and which way a press goes: `point` on the target's surface at first touch (world
-    metres) and `direction` (world, any length), the way the tool moves into the target."""
+    metres) and `direction` (world, any non-zero length), the way the tool moves into the
+    target. Both are checked when set: 3 finite numbers each."""
 
-    __slots__ = ("point", "direction")
+    __slots__ = ("_point", "_direction")
 
-    def __init__(self, point: NDArray[np.float64], direction: NDArray[np.float64]) -> None:
-        self.point = np.asarray(point, dtype=np.float64)
-        self.direction = np.asarray(direction, dtype=np.float64)
+    def __init__(self, point: ArrayLike, direction: ArrayLike) -> None:
+        self.point = point
+        self.direction = direction
+
+    @property
+    def point(self) -> NDArray[np.float64]:
+        return self._point
+
+    @point.setter
+    def point(self, value: ArrayLike) -> None:
+        self._point = _vector("Contact point", value)
+
+    @property
+    def direction(self) -> NDArray[np.float64]:
+        return self._direction
+
+    @direction.setter
+    def direction(self, value: ArrayLike) -> None:
+        direction = _vector("Contact direction", value)
+        if not float(np.linalg.norm(direction)) > 1e-12:
+            raise ArgumentError(f"Contact direction must not be zero, got {value!r}")
+        self._direction = direction
 
 
 def _wrap(ctx: moderngl.Context) -> GLContext:
@@ -37,15 +147,20 @@ def _wrap(ctx: moderngl.Context) -> GLContext:
 
 
 class DentableSurface:
-    """A mesh that takes dents: its triangles on the GPU and its maps, sized `map_size` texels.
+    """A mesh that takes dents: its triangles on the GPU and its maps, `map_size` texels a side
+    (16 to 4096).
 
-    `height` (R32F, metres along the surface normal, < 0 in a dent) and `normal` (RGBA8,
-    tangent space, xyz * 0.5 + 0.5; sample with the mesh's uv, row 0 at v = 0) are textures to
-    bind in the host's shaders. `model` is the pose (4x4, world from local, metres). The mesh is
-    never changed; `mesh` needs unique texture coordinates (see `mesh_from_triangles`).
+    `height` (R32F, metres along the surface normal, < 0 in a dent, never below
+    -max_dent_depth) and `normal` (RGBA8, tangent space, xyz * 0.5 + 0.5, in the frame of
+    `Mesh.tangents`: T along +u, B = cross(N, T) * w; sample with the mesh's uv, row 0 at
+    v = 0) are textures to bind in the host's shaders. `model` is the pose (4x4, world from
+    local, metres; checked when set). The mesh is never changed; `mesh` (a Mesh, or a
+    trimesh.Trimesh, converted) keeps its own texture coordinates where they are a unique atlas
+    and is re-atlased otherwise: `surface.mesh` is what to draw, and its `source_vertex` maps
+    its vertices to the ones given. After `release()` every method raises ValueError.
     """
 
-    __slots__ = ("_gl", "mesh", "model", "_gpu", "_maps")
+    __slots__ = ("_gl", "_mesh", "_model", "_gpu", "_maps")
 
     def __init__(
         self,
@@ -55,33 +170,133 @@ class DentableSurface:
         max_dent_depth: float = 0.01,
         model: NDArray[np.float64] | None = None,
     ) -> None:
+        if not isinstance(ctx, moderngl.Context):
+            raise ArgumentError(f"ctx must be a moderngl.Context, got {type(ctx).__name__}")
+        size = _map_size(map_size)
+        deepest = _real("max_dent_depth", max_dent_depth, "a finite number of metres > 0")
+        if deepest == 0:
+            raise ArgumentError(f"max_dent_depth must be > 0 metres, got {max_dent_depth!r}")
+        self.model = np.eye(4) if model is None else model
+        self._mesh = _as_mesh(mesh)
         self._gl = _wrap(ctx)
-        self.mesh = mesh
-        self.model = np.eye(4) if model is None else np.asarray(model, dtype=np.float64)
         with preserved(ctx):
-            self._gpu = GpuMesh(self._gl, mesh)
-            self._maps: SurfaceMaps = create_maps(self._gl, self._gpu, map_size, max_dent_depth)
+            self._gpu: GpuMesh | None = GpuMesh(self._gl, self._mesh)
+            self._maps: SurfaceMaps | None = create_maps(self._gl, self._gpu, size, deepest)
+
+    @property
+    def mesh(self) -> Mesh:
+        return self._mesh
+
+    @property
+    def model(self) -> NDArray[np.float64]:
+        return self._model
+
+    @model.setter
+    def model(self, value: ArrayLike) -> None:
+        self._model = _pose("model", value)
+
+    @property
+    def map_size(self) -> int:
+        return self._live("map_size").size[0]
+
+    @property
+    def max_dent_depth(self) -> float:
+        return self._live("max_dent_depth").max_dent_depth
 
     @property
     def height(self) -> moderngl.Texture:
-        return self._maps.height
+        return self._live("height").height
 
     @property
     def normal(self) -> moderngl.Texture:
-        return self._maps.normal
+        return self._live("normal").normal
 
     def heights(self) -> NDArray[np.float32]:
-        """The height map read back to the CPU, [v, u] metres (for saving and inspection; a
-        frame loop binds `height` instead)."""
+        """The height map read back to the CPU, float32 [v, u] metres (for saving with
+        numpy.save and inspection; a frame loop binds `height` instead)."""
+        maps = self._live("heights()")
         with preserved(self._gl.ctx):
-            return self._gl.read(self._maps.height)[:, :, 0]
+            return self._gl.read(maps.height)[:, :, 0]
+
+    def set_heights(self, heights: ArrayLike | str | os.PathLike) -> None:
+        """Replace the height map and rebuild the normals on the GPU. `heights` is a float
+        [v, u] array in metres, map_size x map_size (what `heights()` returns), or the path of
+        a .npy file holding one (what `heights()` saved, or `dentdemo render --maps-dir`
+        wrote). Values must be finite; a value below -max_dent_depth is an error (the map never
+        holds one), positive values are bumps."""
+        maps = self._live("set_heights()")
+        if isinstance(heights, str | os.PathLike):
+            heights = _read_npy(Path(heights))
+        data = np.asarray(heights)
+        side = maps.size[0]
+        if data.dtype.kind != "f" or data.shape != (side, side):
+            raise ArgumentError(
+                f"heights must be a float [v, u] array of shape {(side, side)} (map_size), "
+                f"got {data.dtype} of shape {data.shape}"
+            )
+        self._write_heights(data.astype(np.float32))
+
+    def set_bump_map(self, path: str | os.PathLike, white_height: float) -> None:
+        """Start from a bump map: a greyscale image (8- or 16-bit PNG; colour counts by its
+        luminance) laid over the atlas as heights, white = `white_height` metres, black = 0,
+        resized to the map (image top row at v = 1). Replaces the heights; rebuilds the
+        normals."""
+        maps = self._live("set_bump_map()")
+        amplitude = _real("white_height", white_height, "a finite number of metres >= 0")
+        try:
+            data = load_height_png(Path(path), maps.size[0], amplitude)
+        except DentdemoError as exc:
+            raise ArgumentError(str(exc)) from None
+        self._write_heights(data)
 
     def release(self) -> None:
-        self._maps.release()
-        self._gpu.release()
+        """Free the GPU buffers and maps (again: nothing)."""
+        if self._maps is not None and self._gpu is not None:
+            self._maps.release()
+            self._gpu.release()
+        self._maps = self._gpu = None
 
-    def _body(self) -> CarveBody:
-        return CarveBody(self._gpu, self._maps, self.model)
+    def _live(self, what: str) -> SurfaceMaps:
+        """The maps, or a clear error naming `what` needed them once released."""
+        if self._maps is None:
+            raise ArgumentError(
+                f"{what}: this DentableSurface (mesh {self._mesh.name!r}) was released; "
+                "make a new one"
+            )
+        return self._maps
+
+    def _write_heights(self, data: NDArray[np.float32]) -> None:
+        maps = self._live("set_heights()")
+        if not np.isfinite(data).all():
+            count = int((~np.isfinite(data)).sum())
+            raise ArgumentError(f"heights must be finite, got {count} NaN or infinite values")
+        lowest = float(data.min())
+        # The map holds float32; a bound read back through float32 may round below by an ulp.
+        if lowest < -maps.max_dent_depth * (1 + 1e-6):
+            raise ArgumentError(
+                f"heights must not go below -max_dent_depth ({-maps.max_dent_depth:g} m), got "
+                f"{lowest:g} m; make the surface with a larger max_dent_depth"
+            )
+        assert self._gpu is not None
+        with preserved(self._gl.ctx):
+            maps.height.write(np.ascontiguousarray(data).tobytes())
+            maps.max_height = max(float(data.max()), 0.0)
+            rebuild_all_normals(self._gl, self._gpu, maps)
+
+    def _body(self, name: str) -> CarveBody:
+        maps = self._live(name)
+        assert self._gpu is not None
+        return CarveBody(self._gpu, maps, _pose(f"{name}.model", self._model))
+
+
+def _read_npy(path: Path) -> NDArray:
+    """A height array saved with numpy.save, or an error naming the file."""
+    try:
+        return np.load(path, allow_pickle=False)
+    except OSError as exc:
+        raise ArgumentError(f"heights: cannot read {path} ({exc.strerror or exc})") from None
+    except ValueError as exc:
+        raise ArgumentError(f"heights: {path} is not a .npy array ({exc})") from None
 
 
 class Carver:
@@ -90,9 +305,11 @@ class Carver:
     __slots__ = ("_ctx", "_carver")
 
     def __init__(self, ctx: moderngl.Context) -> None:
+        if not isinstance(ctx, moderngl.Context):
+            raise ArgumentError(f"ctx must be a moderngl.Context, got {type(ctx).__name__}")
         self._ctx = ctx
         with preserved(ctx):
-            self._carver = _Carver(_wrap(ctx))
+            self._carver: _Carver | None = _Carver(_wrap(ctx))
 
     def press(
         self,
@@ -106,9 +323,37 @@ class Carver:
         along `contact`, and `tool` by `tool_depth`; normals are rebuilt around the dents. A
         press deepens a dent only (the same press twice changes nothing). Nothing is read back.
         False when the bodies cannot meet or the depths are not positive."""
+        carver, depth, tool_depth = self._arguments(target, tool, contact, depth, tool_depth)
         frame = ContactFrame(contact.point, contact.direction)
-        jobs = self._carver.carve(target._body(), tool._body(), frame, depth, tool_depth)
+        jobs = carver.carve(target._body("target"), tool._body("tool"), frame, depth, tool_depth)
         return bool(jobs)
 
     def release(self) -> None:
-        self._carver.release()
+        """Free the collision camera's buffers (again: nothing)."""
+        if self._carver is not None:
+            self._carver.release()
+        self._carver = None
+
+    def _arguments(
+        self, target: object, tool: object, contact: object, depth: object, tool_depth: object
+    ) -> tuple[_Carver, float, float]:
+        """press()'s arguments checked: the carver, then both depths as floats."""
+        if self._carver is None:
+            raise ArgumentError("this Carver was released; make a new one")
+        for name, surface in (("target", target), ("tool", tool)):
+            if not isinstance(surface, DentableSurface):
+                raise ArgumentError(
+                    f"{name} must be a DentableSurface, got {type(surface).__name__}"
+                )
+            surface._live(name)
+            if surface._gl.ctx is not self._ctx:
+                raise ArgumentError(f"{name} was made in another moderngl context than this Carver")
+        if target is tool:
+            raise ArgumentError(
+                "target and tool are the same DentableSurface: a surface cannot be pressed "
+                "into itself"
+            )
+        if not isinstance(contact, Contact):
+            raise ArgumentError(f"contact must be a dentdemo.Contact, got {type(contact).__name__}")
+        metres = "a finite number of metres >= 0"
+        return self._carver, _real("depth", depth, metres), _real("tool_depth", tool_depth, metres)

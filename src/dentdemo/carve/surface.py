@@ -258,35 +258,3 @@ def load_height_png(path: Path, size: int, amplitude: float) -> np.ndarray:
         raise DentdemoError(f"{path}: cannot read the height image ({detail})") from None
     data = np.clip(np.asarray(grey, dtype=np.float32)[::-1] / white, 0.0, 1.0)
     return np.ascontiguousarray(data * amplitude, dtype=np.float32)
-
-
-def export_maps(gl: GLContext, maps: SurfaceMaps, path: Path) -> None:
-    """Write height (float32 [v, u], m) and normal (uint8 [v, u, 4]) to an .npz. Export only."""
-    height = gl.read(maps.height)[:, :, 0]
-    normal = gl.read(maps.normal)
-    tmp = Path(path).with_suffix(".tmp.npz")
-    np.savez(
-        tmp,
-        height=height,
-        normal=normal,
-        texel_metres=np.array(maps.texel_metres),
-        max_dent_depth=np.array(maps.max_dent_depth),
-    )
-    tmp.replace(path)
-
-
-def import_maps(gl: GLContext, maps: SurfaceMaps, path: Path) -> None:
-    """Load maps written by export_maps into a body's maps of the same size (exact round trip)."""
-    try:
-        data = np.load(path)
-        height, normal = data["height"], data["normal"]
-    except (OSError, KeyError, ValueError) as exc:
-        raise DentdemoError(f"{path}: not a dentdemo maps file ({exc})") from None
-    w, h = maps.size
-    if height.shape != (h, w) or normal.shape != (h, w, 4):
-        raise DentdemoError(f"{path}: maps are {height.shape}, the body needs {(h, w)}")
-    if height.dtype != np.float32 or not np.isfinite(height).all():
-        raise DentdemoError(f"{path}: height must be finite float32")
-    maps.height.write(np.ascontiguousarray(height).tobytes())
-    maps.max_height = max(float(height.max()), 0.0)
-    maps.normal.write(np.ascontiguousarray(normal, dtype=np.uint8).tobytes())
