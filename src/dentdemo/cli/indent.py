@@ -7,6 +7,7 @@ import argparse
 import json
 from pathlib import Path
 
+from dentdemo import log
 from dentdemo.cli.args import command, float_in, int_in
 from dentdemo.errors import DentdemoError
 from dentdemo.outputs import check_output_dir
@@ -90,6 +91,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
+def _clamped(flag: str, depth: float, deepest: float) -> float:
+    """A press depth within the maps' bound, metres: a deeper one is pressed to the bound (as
+    the material model clamps a dent, eq. 4), with one warning line saying so."""
+    if depth <= deepest:
+        return depth
+    log.warn(
+        f"{flag} {depth:g} m is deeper than --max-dent-depth {deepest:g} m: "
+        f"clamped to {deepest:g} m"
+    )
+    return deepest
+
+
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -97,6 +110,8 @@ def run(args: argparse.Namespace) -> int:
     from dentdemo.carve.surface import load_height_png
     from dentdemo.gl.context import create_headless
 
+    depth = _clamped("--depth", args.depth, args.max_dent_depth)
+    tool_depth = _clamped("--tool-depth", args.tool_depth, args.max_dent_depth)
     direction = np.asarray(args.normal, dtype=np.float64)
     if np.linalg.norm(direction) < 1e-9:
         raise DentdemoError(f"--normal: must be a non-zero vector, got {args.normal}")
@@ -123,8 +138,8 @@ def run(args: argparse.Namespace) -> int:
             args.max_dent_depth,
             pattern,
         )
-        times = run_presses(gl, setup, args.depth, args.tool_depth, args.repeat)
-        summary = write_outputs(gl, setup, out, args.depth, args.tool_depth, times)
+        times = run_presses(gl, setup, depth, tool_depth, args.repeat)
+        summary = write_outputs(gl, setup, out, depth, tool_depth, times)
     finally:
         gl.release()
     print(json.dumps(summary, indent=2))
