@@ -1,5 +1,6 @@
 """GL context, the shader loader, and an EGL smoke test."""
 
+import ctypes
 import os
 import subprocess
 import sys
@@ -14,7 +15,22 @@ from dentdemo.gl.shaders import ShaderLibrary
 
 
 def test_context_is_33_core(gl):
-    assert gl.ctx.version_code >= 330
+    """Asked of the driver itself, not of moderngl (whose version the context's maker already
+    checks): GL_MAJOR_VERSION.GL_MINOR_VERSION >= 3.3 and the core bit of
+    GL_CONTEXT_PROFILE_MASK set. MESA_GL_VERSION_OVERRIDE=3.3COMPAT gives a compatibility
+    context that passed the old check and fails this one."""
+    raw = ctypes.CDLL("libOpenGL.so.0")
+    value = ctypes.c_int(0)
+
+    def integer(pname: int) -> int:
+        raw.glGetIntegerv(pname, ctypes.byref(value))
+        return value.value
+
+    major, minor = integer(0x821B), integer(0x821C)  # GL_MAJOR_VERSION, GL_MINOR_VERSION
+    assert (major, minor) >= (3, 3), (major, minor)
+    assert integer(0x9126) & 0x1, "not a core profile"  # GL_CONTEXT_PROFILE_MASK, CORE_BIT
+    raw.glGetString.restype = ctypes.c_char_p
+    assert raw.glGetString(0x1F02).decode().startswith(f"{major}.{minor}")  # GL_VERSION
     assert gl.renderer
 
 

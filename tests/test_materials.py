@@ -1,12 +1,16 @@
 """Material presets: the built-in file, user overrides, and every kind of bad input."""
 
 import json
+import tomllib
+from pathlib import Path
 
 import pytest
 
 from cli_helpers import dentdemo
 from dentdemo.errors import ConfigError
 from dentdemo.model.materials import load_materials
+
+ROOT = Path(__file__).resolve().parents[1]
 
 GOOD = """
 [materials.tin]
@@ -112,15 +116,29 @@ def _cli(*args):
 
 
 def test_cli_materials_json_lists_every_preset_with_k_and_y():
+    """k and Y of every preset computed here from the file's own numbers (read with tomllib),
+    by the formulas the file states (eqs. 4-5), and steel's worked by hand."""
     result = _cli("materials", "--json")
     assert result.returncode == 0, result.stderr
     data = json.loads(result.stdout)
-    lib = load_materials()
-    names = [m["name"] for m in data["materials"]]
-    assert names == lib.names()
+    raw = tomllib.loads((ROOT / "assets" / "materials.toml").read_text())
+    per_compliance = raw["calibration"]["k_per_compliance"]
+    y_unit = raw["calibration"]["Y_unit_Ns"]
+    assert sorted(m["name"] for m in data["materials"]) == sorted(raw["materials"])
     for entry in data["materials"]:
-        assert entry["k_m_per_Ns"] == pytest.approx(lib.get(entry["name"]).k)
-        assert entry["Y_Ns"] == pytest.approx(lib.get(entry["name"]).Y)
+        preset = raw["materials"][entry["name"]]
+        k = preset.get("k_m_per_Ns")
+        if k is None:
+            k = per_compliance * (
+                1 / preset["plastic_modulus_Pa"] - 1 / preset["youngs_modulus_Pa"]
+            )
+        y = y_unit * (1 / (1 - preset["restitution"]) - 1)
+        assert entry["k_m_per_Ns"] == pytest.approx(k, rel=1e-12), entry["name"]
+        assert entry["Y_Ns"] == pytest.approx(y, rel=1e-12), entry["name"]
+    steel = next(m for m in data["materials"] if m["name"] == "steel")
+    # 2e5 (1/2e9 - 1/200e9) = 9.9e-5 m/(N s); 1/(1 - 0.6) - 1 = 1.5 N s.
+    assert steel["k_m_per_Ns"] == pytest.approx(9.9e-5, rel=1e-12)
+    assert steel["Y_Ns"] == pytest.approx(1.5, rel=1e-12)
 
 
 def test_cli_bad_file_exits_nonzero_with_one_line(tmp_toml):

@@ -1,34 +1,26 @@
 """The code style of DESIGN.md: ruff at line length 100, formatted, and shaders that start with
 `#version 330 core`."""
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
-
-import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _ruff(*args: str) -> subprocess.CompletedProcess:
+    """ruff, of the test extra (pip install -e .[test]): missing, the style tests fail."""
     return subprocess.run(
         [sys.executable, "-m", "ruff", *args], capture_output=True, text=True, cwd=ROOT
     )
 
 
-@pytest.fixture(scope="module")
-def ruff_available():
-    if shutil.which("ruff") is None and _ruff("--version").returncode != 0:
-        pytest.skip("ruff is not installed (it comes with the test extra: pip install -e .[test])")
-
-
-def test_ruff_lint(ruff_available):
+def test_ruff_lint():
     result = _ruff("check", "src", "tests")
     assert result.returncode == 0, result.stdout + result.stderr
 
 
-def test_ruff_format(ruff_available):
+def test_ruff_format():
     result = _ruff("format", "--check", "src", "tests")
     assert result.returncode == 0, result.stdout + result.stderr
 
