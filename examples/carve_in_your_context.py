@@ -22,19 +22,21 @@ from PIL import Image
 import dentdemo
 
 # The host's own shader: Lambert light with the surface normal bent by dentdemo's normal map
-# (tangent space, xyz * 0.5 + 0.5; the tangent frame from screen-space derivatives of the uv).
+# (tangent space, xyz * 0.5 + 0.5) in the mesh's own tangent frame: T = in_tangent.xyz along +u,
+# B = cross(N, T) * in_tangent.w (see help(dentdemo.Mesh)).
 VERTEX = """
 #version 330 core
 uniform mat4 u_mvp;
 in vec3 in_position;
 in vec3 in_normal;
+in vec4 in_tangent;
 in vec2 in_uv;
-out vec3 v_position;
 out vec3 v_normal;
+out vec4 v_tangent;
 out vec2 v_uv;
 void main() {
-    v_position = in_position;
     v_normal = in_normal;
+    v_tangent = in_tangent;
     v_uv = in_uv;
     gl_Position = u_mvp * vec4(in_position, 1.0);
 }
@@ -43,17 +45,14 @@ FRAGMENT = """
 #version 330 core
 uniform sampler2D u_normal_map;
 uniform vec3 u_light;
-in vec3 v_position;
 in vec3 v_normal;
+in vec4 v_tangent;
 in vec2 v_uv;
 out vec4 f_colour;
 void main() {
     vec3 n = normalize(v_normal);
-    vec3 dp1 = dFdx(v_position), dp2 = dFdy(v_position);
-    vec2 du1 = dFdx(v_uv), du2 = dFdy(v_uv);
-    vec3 t = normalize(dp1 * du2.y - dp2 * du1.y);
-    t = normalize(t - n * dot(n, t));
-    vec3 b = cross(n, t) * sign(du1.x * du2.y - du2.x * du1.y);
+    vec3 t = normalize(v_tangent.xyz - n * dot(n, v_tangent.xyz));
+    vec3 b = cross(n, t) * v_tangent.w;
     vec3 m = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
     vec3 bent = normalize(mat3(t, b, n) * m);
     float light = 0.15 + 0.85 * max(dot(bent, normalize(-u_light)), 0.0);
@@ -85,12 +84,12 @@ def perspective(fov_deg: float, aspect: float, near: float, far: float) -> np.nd
 
 def run(ctx: moderngl.Context, out: Path, press: bool = True, size=(480, 360)) -> dict:
     """Make a torus, dent it with a ball (unless `press` is False), render it to `out`."""
-    # A torus without texture coordinates, lying flat (axis +Y): dentdemo gives it a unique
-    # atlas (one warning).
+    # A trimesh torus without texture coordinates, lying flat (axis +Y): dentdemo gives it a
+    # unique atlas (one warning). dentdemo.mesh_from_triangles(positions, indices, uvs) does the
+    # same for a host's own arrays.
     torus = trimesh.creation.torus(major_radius=0.2, minor_radius=0.07)
     torus.apply_transform(trimesh.transformations.rotation_matrix(-np.pi / 2, (1, 0, 0)))
-    mesh = dentdemo.mesh_from_triangles(torus.vertices, torus.faces, name="torus")
-    target = dentdemo.DentableSurface(ctx, mesh, map_size=1024, max_dent_depth=0.02)
+    target = dentdemo.DentableSurface(ctx, torus, map_size=1024, max_dent_depth=0.02)
 
     # A 5 cm ball touching the top of the tube at (0.2, 0.07, 0), moving straight down.
     top = np.array([0.2, 0.07, 0.0])
@@ -109,9 +108,15 @@ def run(ctx: moderngl.Context, out: Path, press: bool = True, size=(480, 360)) -
     fbo.clear(0.1, 0.12, 0.15, 1.0, depth=1.0)
     ctx.enable(moderngl.DEPTH_TEST)
     prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
-    vbo = ctx.buffer(np.hstack([mesh.positions, mesh.normals, mesh.uvs]).astype("f4").tobytes())
+    # Draw target.mesh, not the torus's own arrays: its vertices are split along the new atlas's
+    # seams (mesh.source_vertex names the torus vertex each one copies, for any data of the
+    # host's own per vertex).
+    mesh = target.mesh
+    data = np.hstack([mesh.positions, mesh.normals, mesh.tangents, mesh.uvs]).astype("f4")
+    vbo = ctx.buffer(data.tobytes())
     ibo = ctx.buffer(mesh.indices.astype("u4").tobytes())
-    vao = ctx.vertex_array(prog, [(vbo, "3f 3f 2f", "in_position", "in_normal", "in_uv")], ibo)
+    names = ("in_position", "in_normal", "in_tangent", "in_uv")
+    vao = ctx.vertex_array(prog, [(vbo, "3f 3f 4f 2f", *names)], ibo)
     mvp = perspective(35.0, size[0] / size[1], 0.05, 5.0) @ look_at((0.3, 0.32, 0.22), top)
     prog["u_mvp"].write(mvp.T.astype("f4").tobytes())
     prog["u_light"].value = (-0.3, -1.0, -0.6)

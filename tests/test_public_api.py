@@ -58,6 +58,13 @@ def test_example_carves_a_visible_dent_headless(tmp_path):
     assert 300 < changed.sum() < 0.05 * changed.size
     rows, cols = np.nonzero(changed)
     assert np.ptp(rows) < 120 and np.ptp(cols) < 120
+    # Shaded as a dent, not a bump: the light comes from +z (and +x, +y); the camera's screen
+    # up is world -z. A pit's wall on its -z side faces +z, so the upper half of the dent is
+    # brighter than its lower half (a bump, or a tangent frame off by a sign, the other way).
+    grey = after.mean(axis=2)[rows, cols]
+    middle = (rows.min() + rows.max()) / 2  # image rows run top-down
+    upper, lower = grey[rows < middle].mean(), grey[rows > middle].mean()
+    assert upper > lower + 10, (upper, lower)
 
 
 # -- the host's GL state ---------------------------------------------------------------------------

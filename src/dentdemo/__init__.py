@@ -2,30 +2,30 @@
 
 Use it in your own moderngl program (examples/carve_in_your_context.py):
 
-    import dentdemo
-    mesh = dentdemo.mesh_from_triangles(positions, indices)   # re-atlased if it has no UVs
-    ball = dentdemo.shape_mesh(dentdemo.Sphere(0.05))
+    mesh = dentdemo.mesh_from_triangles(positions, indices, uvs)  # re-atlased if UVs unfit
     target = dentdemo.DentableSurface(ctx, mesh, map_size=1024, max_dent_depth=0.01)
-    tool = dentdemo.DentableSurface(ctx, ball, model=tool_pose)    # posed at first touch
-    carver = dentdemo.Carver(ctx)
-    carver.press(target, tool, dentdemo.Contact(point, direction), depth=0.002)
-    # bind target.normal (and target.height) in your shaders; the mesh is never changed
+    ball = dentdemo.DentableSurface(ctx, dentdemo.shape_mesh(dentdemo.Sphere(0.05)), 256,
+                                    model=tool_pose)               # 4x4, at first touch
+    dentdemo.Carver(ctx).press(target, ball, dentdemo.Contact(point, direction), depth=0.002)
+    # bind target.normal (and .height) in your own shaders; the mesh is never changed
 
-The API (each name has its own help, e.g. help(dentdemo.Carver)):
+The API (each name has its own help, e.g. help(dentdemo.DentableSurface)):
 
     DentableSurface(ctx, mesh, map_size=1024, max_dent_depth=0.01, model=None)
-        a mesh with its maps: .height (R32F metres, < 0 in dents), .normal (RGBA8 tangent
-        space), .model (4x4 world from local), .heights() (read back), .release()
-    Carver(ctx).press(target, tool, contact, depth, tool_depth=0.0) -> bool
-        dents both surfaces where the tool moves into the target; .release()
+        a Mesh or trimesh.Trimesh with maps of 16 to 4096 texels a side: .height (R32F m,
+        < 0 in dents), .normal (RGBA8 tangent space), .model (4x4 world from local), .mesh
+        (to draw), .heights() (read back, float32 [v, u]), .set_heights(array or .npy path),
+        .set_bump_map(png, white_height) (both rebuild the normals), .release()
+    Carver(ctx).press(target, tool, contact, depth, tool_depth=0.0) -> bool; .release()
     Contact(point, direction)       world metres; the way the tool moves
-    mesh_from_triangles(positions, indices, uvs=None)  -> Mesh (re-atlased when needed)
-    load_mesh(path, scale=1.0)      -> Mesh, from anything trimesh reads
-    shape_mesh(shape)               -> Mesh of Sphere(r), Box((x, y, z)), Capsule(r, length),
-                                       Cylinder(r, length) or Plate(side) (all in metres)
+    mesh_from_triangles(positions, indices, uvs=None), load_mesh(path, scale=1.0) -> Mesh
+        (own UVs kept when they are a unique atlas, else re-atlased with one warning)
+    shape_mesh(Sphere(r), Box((x, y, z)), Capsule/Cylinder(r, length), Plate(side)) -> Mesh
 
-Every call leaves the host's GL state as it was, and nothing is read back from the GPU unless
-you ask (heights()). The command line is `dentdemo --help`.
+Mesh.tangents (n, 4): xyz = T along +u, w = handedness, B = cross(N, T) * w; a normal-map texel
+m (rgb * 2 - 1) is T m.x + B m.y + N m.z. Mesh.source_vertex (n,): the caller's vertex each one
+copies (seams, creases and a re-atlas split vertices). Calls keep the host's GL state and read
+nothing back unless asked; a bad argument, or a released surface, raises a ValueError naming it.
 """
 
 from __future__ import annotations
