@@ -17,6 +17,7 @@ import trimesh
 
 from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.mesh.loader import check_uvs, load_mesh, mesh_from_triangles
+from dentdemo.mesh.mesh import Mesh
 from mesh_helpers import glb, gltf, grid
 
 
@@ -197,3 +198,36 @@ def test_mesh_from_triangles_names_a_bad_array(positions, indices, uvs, fragment
         mesh_from_triangles(positions, indices, uvs, name="host")
     assert isinstance(info.value, ArgumentError)
     assert str(info.value).startswith("host: ") and fragment in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "fragment"),
+    [
+        ("positions", np.zeros((4, 2)), "Mesh positions must be an (n, 3) array"),
+        ("normals", np.zeros((3, 3)), "Mesh normals must have one row per position (4), got 3"),
+        ("uvs", np.full((4, 2), np.nan), "Mesh uvs must be an (n, 2) array of finite numbers"),
+        ("indices", [[0, 1, 4]], "Mesh indices must lie in [0, 3], got 4"),
+        ("texture_uvs", np.zeros((4, 3)), "Mesh texture_uvs must be an (n, 2) array"),
+    ],
+)
+def test_a_mesh_made_directly_names_a_bad_array(field, value, fragment):
+    quad = {
+        "name": "quad",
+        "positions": np.array([[0, 0, 0], [1, 0, 0], [1, 0, -1], [0, 0, -1]], float),
+        "normals": np.tile([0.0, 1.0, 0.0], (4, 1)),
+        "uvs": np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float),
+        "indices": [[0, 1, 2], [0, 2, 3]],
+    }
+    with pytest.raises(ArgumentError) as info:
+        Mesh(**{**quad, field: value})
+    assert fragment in str(info.value)
+
+
+@pytest.mark.parametrize("scale", [0.0, -1.0, float("nan"), "big"])
+def test_load_mesh_names_a_bad_scale(tmp_path, scale):
+    path = tmp_path / "m.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(
+        ArgumentError, match=f"m.obj: scale must be a positive finite number, got {scale!r}"
+    ):
+        load_mesh(path, scale)
