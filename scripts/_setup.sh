@@ -53,10 +53,10 @@ ensure_venv() {
     local stamp="$VENV/.dentdemo-installed" want
     want="$(sha256sum "$ROOT/pyproject.toml" | cut -d' ' -f1)"
     if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$want" ]]; then
-        echo "dentdemo: installing the package and its test tools into .venv"
+        echo "dentdemo: installing the package, its app extra and its test tools into .venv"
         local log="$VENV/pip-install.log"
         if ! { "$VENV/bin/python" -m pip install -q --upgrade pip &&
-               "$VENV/bin/python" -m pip install -q -e "$ROOT[test]"; } >"$log" 2>&1; then
+               "$VENV/bin/python" -m pip install -q -e "$ROOT[app,test]"; } >"$log" 2>&1; then
             tail -n 30 "$log" >&2
             echo "dentdemo: pip install failed (full log: $log)" >&2
             exit 1

@@ -30,5 +30,9 @@ class ShaderError(DentdemoError):
     """A shader failed to load, compile or link; the message names file and line."""
 
 
+class MissingExtraError(DentdemoError):
+    """An optional dependency (the `app` extra: window, panel, video) is not installed."""
+
+
 class PhysicsLibraryError(DentdemoError):
     """The ODE library or one of the symbols we use is missing."""

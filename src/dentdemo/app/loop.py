@@ -16,6 +16,7 @@ import numpy as np
 from dentdemo import interrupt
 from dentdemo.app.controller import DemoController
 from dentdemo.errors import DentdemoError
+from dentdemo.extras import require_app
 from dentdemo.outputs import write_png
 from dentdemo.progress import progress_bar
 
@@ -153,6 +154,7 @@ class VideoBackend(OffscreenBackend):
         except OSError as exc:
             raise DentdemoError(f"--video: cannot create '{out.parent}' ({exc.strerror})") from None
         if out.suffix.lower() != ".gif":
+            require_app("--video: an MP4", "imageio_ffmpeg")
             import imageio_ffmpeg
 
             self._writer = imageio_ffmpeg.write_frames(

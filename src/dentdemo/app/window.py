@@ -16,6 +16,7 @@ import moderngl
 
 from dentdemo.app.controller import DemoController
 from dentdemo.app.loop import FrameLoop
+from dentdemo.extras import require_app
 from dentdemo.gl.context import GLContext, create_window
 from dentdemo.gl.library import flush
 from dentdemo.model.materials import MaterialLibrary
@@ -33,6 +34,7 @@ class DemoWindow:
         size: tuple[int, int] = (1280, 720),
         quality: str | None = None,
     ) -> None:
+        require_app("the interactive demo", "glfw", "imgui_bundle")
         import glfw
         from imgui_bundle import imgui  # before glfw: pyGLFW must use imgui-bundle's libglfw
 

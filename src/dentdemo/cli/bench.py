@@ -8,6 +8,7 @@ from pathlib import Path
 
 from dentdemo.cli.args import command
 from dentdemo.errors import DentdemoError
+from dentdemo.extras import require_app
 from dentdemo.outputs import check_output_file, write_json
 
 
@@ -41,6 +42,8 @@ def run(args: argparse.Namespace) -> int:
     plot_path = check_output_file("--plot", Path(args.plot)) if args.plot else None
     from dentdemo.gl.context import has_display
 
+    if args.window:
+        require_app("--window", "glfw", "imgui_bundle")
     if args.window and not has_display():
         raise DentdemoError("--window: no display (DISPLAY is not set); run it under X or Xvfb")
     mode = "tiny" if args.tiny else ("quick" if args.quick else "full")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from dentdemo.cli.args import add_quality, add_scene, command, float_in, size_wxh
 from dentdemo.errors import GLUnavailableError
+from dentdemo.extras import require_app
 from dentdemo.outputs import check_output_file
 
 HEADLESS_FALLBACK = Path("dentdemo_demo.png")
@@ -43,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from dentdemo.model.materials import load_materials
     from dentdemo.model.scene import load_scene
 
+    require_app("the interactive demo", "glfw", "imgui_bundle")
     shot = Path(args.screenshot) if args.screenshot else None
     if shot is not None:
         check_output_file("--screenshot", shot)

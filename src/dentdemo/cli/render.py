@@ -7,6 +7,7 @@ from pathlib import Path
 
 from dentdemo.cli.args import add_quality, add_scene, command, float_in, int_in, size_wxh
 from dentdemo.errors import DentdemoError
+from dentdemo.extras import require_app
 from dentdemo.outputs import check_output_dir, check_output_file
 
 
@@ -99,6 +100,8 @@ def run(args: argparse.Namespace) -> int:
         check_output_file("--video", video)
         if video.suffix.lower() not in (".mp4", ".gif"):
             raise DentdemoError(f"--video: '{video}' must end in .mp4 or .gif")
+        if video.suffix.lower() == ".mp4":
+            require_app("--video: an MP4", "imageio_ffmpeg")
         if video.suffix.lower() == ".mp4" and (args.size[0] % 2 or args.size[1] % 2):
             raise DentdemoError(f"--video: H.264 needs an even --size, got {args.size}")
     save_state = Path(args.save_state) if args.save_state else None
