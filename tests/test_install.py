@@ -152,6 +152,31 @@ def test_wheel_carries_every_shipped_file(wheel):
     assert missing == []
     for module in (ROOT / "src" / "dentdemo").rglob("*.py"):
         assert f"dentdemo/{module.relative_to(ROOT / 'src' / 'dentdemo').as_posix()}" in names
+    assert "dentdemo/py.typed" in names
+
+
+def test_type_checker_reads_the_installed_package_types(core, tmp_path):
+    """A host type-checked against the installed wheel (py.typed): the exports have their real
+    types, and a wrong call is caught."""
+    host = tmp_path / "host.py"
+    lines = ["import dentdemo", "reveal_type(dentdemo.Carver.press)", "dentdemo.Sphere('5 cm')"]
+    host.write_text("\n".join(lines) + "\n")
+    checked = _run(
+        [
+            sys.executable,
+            "-m",
+            "mypy",
+            "--python-executable",
+            core["python"],
+            "--no-incremental",
+            "--follow-imports=silent",
+            str(host),
+        ],
+        cwd=tmp_path,
+    )
+    assert "def (self: dentdemo.api.Carver, target: dentdemo.api.DentableSurface" in checked.stdout
+    assert 'Argument 1 to "Sphere" has incompatible type "str"' in checked.stdout, checked.stdout
+    assert "missing library stubs or py.typed" not in checked.stdout
 
 
 def test_core_install_has_no_app_extra(core):

@@ -31,9 +31,25 @@ nothing back unless asked; a bad argument, or a released surface, raises a Value
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
+
+#: The public names (`from dentdemo import *`), each imported on first use.
+__all__ = [
+    "Box",
+    "Capsule",
+    "Carver",
+    "Contact",
+    "Cylinder",
+    "DentableSurface",
+    "Mesh",
+    "Plate",
+    "Sphere",
+    "load_mesh",
+    "mesh_from_triangles",
+    "shape_mesh",
+]
 
 #: Public name -> module that defines it; imported on first use, so that `import dentdemo` (and
 #: the command line) stays light.
@@ -53,6 +69,14 @@ _EXPORTS = {
 }
 #: The host's names (help(dentdemo) shows their summary above; each has its own help).
 API = ("Carver", "Contact", "DentableSurface", "load_mesh", "mesh_from_triangles", "shape_mesh")
+
+
+if TYPE_CHECKING:  # what type checkers see behind the lazy imports below
+    from dentdemo.api import Carver, Contact, DentableSurface
+    from dentdemo.mesh.loader import load_mesh, mesh_from_triangles
+    from dentdemo.mesh.mesh import Mesh
+    from dentdemo.mesh.shapes import shape_mesh
+    from dentdemo.model.shapes import Box, Capsule, Cylinder, Plate, Sphere
 
 
 def __getattr__(name: str) -> Any:
