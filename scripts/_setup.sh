@@ -65,6 +65,31 @@ ensure_venv() {
     fi
 }
 
+# Node tools the tests use, in the git-ignored .tools/node: the Khronos glTF validator.
+NODE_TOOLS="$ROOT/.tools/node"
+NODE_PACKAGES=("gltf-validator@2.0.0-dev.3.10")
+
+ensure_node_tools() {
+    if ! command -v npm >/dev/null 2>&1; then
+        echo "dentdemo: npm not found: the glTF validator tests will be skipped" \
+            "(Debian: apt-get install nodejs npm)" >&2
+        return 0
+    fi
+    local stamp="$NODE_TOOLS/.installed" want="${NODE_PACKAGES[*]}"
+    [[ -f "$stamp" && "$(cat "$stamp")" == "$want" ]] && return 0
+    echo "dentdemo: installing $want into $NODE_TOOLS"
+    mkdir -p "$NODE_TOOLS"
+    local log="$NODE_TOOLS/npm-install.log"
+    if ! npm install --prefix "$NODE_TOOLS" --no-audit --no-fund --no-save "${NODE_PACKAGES[@]}" \
+        >"$log" 2>&1; then
+        tail -n 30 "$log" >&2
+        echo "dentdemo: npm install failed (full log: $log)" >&2
+        exit 1
+    fi
+    echo "$want" >"$stamp"
+}
+
 ensure_system_packages
 ensure_venv
+ensure_node_tools
 export PATH="$VENV/bin:$PATH"

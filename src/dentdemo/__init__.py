@@ -21,6 +21,8 @@ The API (each name has its own help, e.g. help(dentdemo.DentableSurface)):
     mesh_from_triangles(positions, indices, uvs=None), load_mesh(path, scale=1.0) -> Mesh
         (own UVs kept when they are a unique atlas, else re-atlased with one warning)
     shape_mesh(Sphere(r), Box((x, y, z)), Capsule/Cylinder(r, length), Plate(side)) -> Mesh
+    export_gltf(path, surfaces, names=None, looks=None) -> .glb/.gltf file: meshes, tangents,
+        materials (looks: Appearance or preset names), normal maps, heights (16-bit PNG)
 
 Mesh.tangents (n, 4): xyz = T along +u, w = handedness, B = cross(N, T) * w; a normal-map texel
 m (rgb * 2 - 1) is T m.x + B m.y + N m.z. Mesh.source_vertex (n,): the caller's vertex each one
@@ -37,6 +39,7 @@ __version__ = "0.1.0"
 
 #: The public names (`from dentdemo import *`), each imported on first use.
 __all__ = [
+    "Appearance",
     "Box",
     "Capsule",
     "Carver",
@@ -46,6 +49,7 @@ __all__ = [
     "Mesh",
     "Plate",
     "Sphere",
+    "export_gltf",
     "load_mesh",
     "mesh_from_triangles",
     "shape_mesh",
@@ -57,6 +61,8 @@ _EXPORTS = {
     "DentableSurface": "dentdemo.api",
     "Carver": "dentdemo.api",
     "Contact": "dentdemo.api",
+    "export_gltf": "dentdemo.api",
+    "Appearance": "dentdemo.model.materials",
     "Mesh": "dentdemo.mesh.mesh",
     "mesh_from_triangles": "dentdemo.mesh.loader",
     "load_mesh": "dentdemo.mesh.loader",
@@ -68,14 +74,23 @@ _EXPORTS = {
     "Plate": "dentdemo.model.shapes",
 }
 #: The host's names (help(dentdemo) shows their summary above; each has its own help).
-API = ("Carver", "Contact", "DentableSurface", "load_mesh", "mesh_from_triangles", "shape_mesh")
+API = (
+    "Carver",
+    "Contact",
+    "DentableSurface",
+    "export_gltf",
+    "load_mesh",
+    "mesh_from_triangles",
+    "shape_mesh",
+)
 
 
 if TYPE_CHECKING:  # what type checkers see behind the lazy imports below
-    from dentdemo.api import Carver, Contact, DentableSurface
+    from dentdemo.api import Carver, Contact, DentableSurface, export_gltf
     from dentdemo.mesh.loader import load_mesh, mesh_from_triangles
     from dentdemo.mesh.mesh import Mesh
     from dentdemo.mesh.shapes import shape_mesh
+    from dentdemo.model.materials import Appearance
     from dentdemo.model.shapes import Box, Capsule, Cylinder, Plate, Sphere
 
 

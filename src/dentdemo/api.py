@@ -8,6 +8,7 @@ import math
 import numbers
 import os
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import moderngl
@@ -30,6 +31,7 @@ from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.gl.context import GLContext
 from dentdemo.gl.state import preserved
 from dentdemo.mesh.mesh import Mesh
+from dentdemo.model.materials import Appearance
 
 
 def _vector(name: str, value: object) -> NDArray[np.float64]:
@@ -361,3 +363,47 @@ class Carver:
             raise ArgumentError(f"contact must be a dentdemo.Contact, got {type(contact).__name__}")
         metres = "a finite number of metres >= 0"
         return self._carver, _real("depth", depth, metres), _real("tool_depth", tool_depth, metres)
+
+
+def export_gltf(
+    path: str | os.PathLike[str],
+    surfaces: Sequence[DentableSurface],
+    names: Sequence[str] | None = None,
+    looks: Sequence[Appearance | str] | None = None,
+) -> Path:
+    """Write `surfaces`, each at its `model` pose, to a glTF 2.0 file: `.glb` (binary) or
+    `.gltf` (JSON with the data embedded). Each surface is one node named by `names` (default
+    surface_0, surface_1, ...) whose primitive carries the mesh with NORMAL, TANGENT
+    (`Mesh.tangents`: glTF's bitangent cross(N, T) * w is the one the normal map is built
+    with) and TEXCOORD_0 (the dent atlas; TEXCOORD_1 where the mesh's own base-colour image is
+    sampled by other coordinates), and a metallic-roughness material: `looks` gives each
+    surface an Appearance or a preset name of assets/materials.toml (default: grey, half
+    rough), the mesh's own image is its baseColorTexture, the normal map read back from the GPU
+    its normalTexture, and `extras.dentdemo_height` references the height map as a 16-bit PNG
+    with `offset_m` and `metres_per_unit` (height_m = offset_m + metres_per_unit * value).
+    Returns the path. The host's GL state is left as it was."""
+    from dentdemo.gltf import GltfBody, check_path, dented_part, write_gltf
+
+    target = check_path("path", Path(path))
+    surfaces = list(surfaces)
+    if not surfaces or not all(isinstance(s, DentableSurface) for s in surfaces):
+        raise ArgumentError(f"surfaces must be one or more DentableSurface, got {surfaces!r}")
+    names = [f"surface_{i}" for i in range(len(surfaces))] if names is None else list(names)
+    chosen = [Appearance()] * len(surfaces) if looks is None else list(looks)
+    for argument, values in (("names", names), ("looks", chosen)):
+        if len(values) != len(surfaces):
+            raise ArgumentError(
+                f"{argument} must have one entry per surface ({len(surfaces)}), got {len(values)}"
+            )
+    library = None
+    bodies = []
+    for surface, name, look in zip(surfaces, names, chosen, strict=True):
+        if isinstance(look, str):
+            from dentdemo.model.materials import load_materials
+
+            library = library or load_materials()
+            look = library.get(look, "looks").appearance
+        maps = surface._live("export_gltf()")
+        part = dented_part(surface._gl, surface.mesh, look, maps)
+        bodies.append(GltfBody(str(name), surface.model, (part,)))
+    return write_gltf(target, bodies)

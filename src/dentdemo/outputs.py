@@ -114,14 +114,19 @@ def write_npy(path: Path, array: NDArray[Any]) -> Path:
     return write_bytes(path, npy_bytes(array))
 
 
-def write_png(path: Path, pixels: NDArray[Any]) -> Path:
-    """An image array (rows top-down; uint8 RGB/RGBA/grey or uint16 grey) as a PNG."""
+def png_bytes(pixels: NDArray[Any]) -> bytes:
+    """An image array (rows top-down; uint8 RGB/RGBA/grey or uint16 grey) as PNG bytes."""
     import numpy as np
     from PIL import Image
 
     buffer = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(pixels)).save(buffer, format="PNG")
-    return write_bytes(path, buffer.getvalue())
+    return buffer.getvalue()
+
+
+def write_png(path: Path, pixels: NDArray[Any]) -> Path:
+    """An image array (rows top-down; uint8 RGB/RGBA/grey or uint16 grey) as a PNG."""
+    return write_bytes(path, png_bytes(pixels))
 
 
 def write_normal_png(path: Path, normal: NDArray[np.uint8]) -> Path:

@@ -27,6 +27,8 @@ CLOSE_UP_DISTANCE = 0.3  # m
 CLOSE_UP_ELEVATION_DEG = 40.0
 #: Where the demo's save-state key and button write, and load-state reads (a folder).
 STATE_DIR = Path("dentdemo_state")
+#: Where the demo's glTF key and button write by default (`demo --gltf` changes it).
+GLTF_FILE = Path("dentdemo.glb")
 
 
 @dataclass
@@ -66,8 +68,10 @@ class DemoController:
         self.panel = PanelState()
         self.paused = False
         self._plates = 0
-        #: The last save/load outcome, one line for the panel and the window title.
+        #: The last save/load/export outcome, one line for the panel and the window title.
         self.message = ""
+        #: Where `export_gltf` writes (key G, the panel's button).
+        self.gltf_path = GLTF_FILE
 
     # -- simulation ----------------------------------------------------------------------------
     def update(self, wall_seconds: float) -> int:
@@ -92,24 +96,31 @@ class DemoController:
         """Save every body's maps and the physics state (F5, panel "save state")."""
         from dentdemo.app.state import save_state
 
-        return self._with_state(save_state, directory, "saved to")
+        return self._with_state(save_state, directory, f"saved to {directory}/")
 
     def load_state(self, directory: Path = STATE_DIR) -> bool:
         """Resume a saved state (F9, panel "load state"); a bad one changes nothing."""
         from dentdemo.app.state import load_state
 
-        return self._with_state(load_state, directory, "loaded")
+        return self._with_state(load_state, directory, f"loaded {directory}/")
 
-    def _with_state(self, action, directory: Path, done: str) -> bool:  # noqa: ANN001
-        """Run a save or load; its outcome, or the error's one line, becomes `message`."""
+    def export_gltf(self, path: Path | None = None) -> bool:
+        """Write every body as it is now to glTF 2.0 (key G, panel "export glTF"), to `path` or
+        `gltf_path`; the outcome becomes `message`."""
+        target = path or self.gltf_path
+        return self._with_state(Simulation.export_gltf, target, f"exported {target}")
+
+    def _with_state(self, action, path: Path, done: str) -> bool:  # noqa: ANN001
+        """Run a save, load or export; its outcome, or the error's one line, becomes
+        `message`."""
         from dentdemo.errors import DentdemoError
 
         try:
-            action(self.sim, directory)
+            action(self.sim, path)
         except DentdemoError as exc:
             self.message = str(exc)
             return False
-        self.message = f"{done} {directory}/ at t = {self.sim.world.time:.2f} s"
+        self.message = f"{done} at t = {self.sim.world.time:.2f} s"
         return True
 
     # -- picking -------------------------------------------------------------------------------

@@ -33,13 +33,15 @@ def render_headless(
     fov: float | None = None,
     video: Path | None = None,
     progress: bool = False,
+    gltf: Path | None = None,
 ) -> None:
     """Simulate `frames` steps and write the last frame (every frame, `out` % frame, with
     `every_frame`). `load_state` resumes a saved run first (the frames continue it);
     `save_state` saves the run after the last frame, before anything the carve budget deferred
     is flushed, so that a resumed run continues exactly. `eye`, `target` (world metres) and
     `fov` (degrees) replace the scene camera's, each where given. `video` (.mp4 or .gif) gets
-    every frame as well, at the scene's frame rate."""
+    every frame as well, at the scene's frame rate. `gltf` (.glb or .gltf) gets every body as
+    it is after the last frame."""
     from dentdemo.app.controller import DemoController  # loads ODE
     from dentdemo.app.loop import FrameLoop, ImageBackend, Tee, VideoBackend
 
@@ -79,6 +81,8 @@ def render_headless(
         app.sim.apply_queued()  # what the budget deferred, before the maps are exported
         if maps_dir is not None:
             app.sim.export_maps(maps_dir)
+        if gltf is not None:
+            app.sim.export_gltf(gltf)
         app.close()
     finally:
         gl.release()

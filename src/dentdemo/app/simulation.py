@@ -308,6 +308,28 @@ class Simulation:
             written += [directory / f"{body_id}_height.npy", directory / f"{body_id}_normal.png"]
         return written
 
+    def export_gltf(self, path: Path) -> Path:
+        """Every body at its current pose as glTF 2.0 (.glb or .gltf, dentdemo/gltf.py): meshes
+        with tangents, the presets' materials, the meshes' own images, and the normal and height
+        maps of the bodies that take dents, read back from the GPU. The ground plane (infinite)
+        is left out."""
+        from dentdemo.gltf import GltfBody, GltfPart, dented_part, write_gltf
+
+        bodies = []
+        for body_id, body in self.bodies.items():
+            if isinstance(body.spec.shape, Plane):
+                continue
+            look = body.spec.material.appearance
+            parts = [
+                dented_part(self.gl, body.mesh, look, body.maps)
+                if body.spec.dentable
+                else GltfPart(body.mesh, look, name="surface")
+            ]
+            if body.under is not None:  # a plate's sides: drawn, never dented
+                parts.append(GltfPart(body.under.mesh, look, name="sides"))
+            bodies.append(GltfBody(body_id, self.model(body_id), tuple(parts)))
+        return write_gltf(path, bodies)
+
     def _release_bodies(self) -> None:
         for body in self.bodies.values():
             _release_body(body)

@@ -4,7 +4,7 @@ Mouse: left drag orbits, a left click drops a ball above the clicked point, righ
 ball along the view ray (longer drags throw harder), middle drag or shift+left drag pans, the
 wheel zooms. Keys: Space pause, N single step, R reset, P screenshot, 1/2/3 shaded/height/normal
 view, W wireframe, C contacts, A address map, X parallax, F close-up on the last dent, F5/F9 save
-and load the state, Esc quit.
+and load the state, G export every body to glTF, Esc quit.
 """
 
 from __future__ import annotations
@@ -117,6 +117,7 @@ class DemoWindow:
             glfw.KEY_F: self.app.close_up,
             glfw.KEY_F5: self.app.save_state,
             glfw.KEY_F9: self.app.load_state,
+            glfw.KEY_G: self.app.export_gltf,
             glfw.KEY_1: lambda: self.app.set_view(0),
             glfw.KEY_2: lambda: self.app.set_view(1),
             glfw.KEY_3: lambda: self.app.set_view(2),
@@ -178,6 +179,9 @@ class DemoWindow:
         imgui.same_line()
         if imgui.button("load state (F9)"):
             app.load_state()
+        imgui.same_line()
+        if imgui.button("export glTF (G)"):
+            app.export_gltf()
         if app.message:
             imgui.text_wrapped(app.message)
         imgui.separator()
@@ -215,14 +219,22 @@ class DemoWindow:
         write_png(path, pixels[:h, :w])
         return path
 
-    def run(self, screenshot: Path | None = None, exit_after: float | None = None) -> int:
+    def run(
+        self,
+        screenshot: Path | None = None,
+        exit_after: float | None = None,
+        gltf: Path | None = None,
+    ) -> int:
         """The frame loop with this window as its backend. With exit_after, the simulation runs
         at its fixed dt per frame (so the image is deterministic), the window's image is saved
-        after that many simulated seconds, and the window closes."""
+        after that many simulated seconds, every body is written to `gltf` if given, and the
+        window closes."""
         self._screenshot_at_end = screenshot
         loop = FrameLoop(self.app, self, fixed_dt=exit_after is not None)
         try:
             loop.run(until_time=exit_after)
+            if gltf is not None:
+                self.app.sim.export_gltf(gltf)
         finally:
             self.close()
         return 0

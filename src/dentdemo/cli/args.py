@@ -7,8 +7,10 @@ import argparse
 import math
 import re
 from collections.abc import Callable
+from pathlib import Path
 from typing import NoReturn
 
+from dentdemo.outputs import check_output_file
 from dentdemo.resources import assets_dir
 
 DEFAULT_SCENE = "scenes/ball_drop.toml"
@@ -104,6 +106,23 @@ def add_quality(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="render quality preset (default: low on a software rasteriser, high on a GPU)",
     )
+
+
+def add_gltf(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument(
+        "--gltf",
+        metavar="FILE",
+        help=f"{what}: glTF 2.0, .glb (binary) or .gltf (opens in Blender and web viewers)",
+    )
+
+
+def check_gltf(text: str | None) -> Path | None:
+    """The --gltf path, checked before any work: writable, and .glb or .gltf."""
+    if not text:
+        return None
+    from dentdemo.gltf import check_path
+
+    return check_output_file("--gltf", check_path("--gltf", Path(text)))
 
 
 def int_in(lo: int, hi: int) -> Callable[[str], int]:

@@ -6,7 +6,15 @@ import argparse
 import sys
 from pathlib import Path
 
-from dentdemo.cli.args import add_quality, add_scene, command, float_in, size_wxh
+from dentdemo.cli.args import (
+    add_gltf,
+    add_quality,
+    add_scene,
+    check_gltf,
+    command,
+    float_in,
+    size_wxh,
+)
 from dentdemo.errors import GLUnavailableError
 from dentdemo.extras import require_app
 from dentdemo.outputs import check_output_file
@@ -37,6 +45,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--size", type=size_wxh, default="1280x720", metavar="WxH", help="window pixels")
     add_quality(p)
+    add_gltf(
+        p,
+        "where the G key and the panel's export button write every body (default dentdemo.glb); "
+        "with --exit-after, also written when the run ends",
+    )
     p.set_defaults(handler=run)
 
 
@@ -48,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     shot = Path(args.screenshot) if args.screenshot else None
     if shot is not None:
         check_output_file("--screenshot", shot)
+    gltf = check_gltf(args.gltf)
     exit_after = args.exit_after
     if shot is not None and exit_after is None:
         exit_after = FALLBACK_SECONDS  # a screenshot always ends the run
@@ -67,7 +81,9 @@ def run(args: argparse.Namespace) -> int:
     except GLUnavailableError as exc:
         why = str(exc).removeprefix("dentdemo: ")
         return _headless_instead(args, path, scene.physics.dt, exit_after, why)
-    return window.run(shot, exit_after)
+    if gltf is not None:
+        window.app.gltf_path = gltf
+    return window.run(shot, exit_after, gltf if exit_after is not None else None)
 
 
 def _headless_instead(
@@ -84,6 +100,9 @@ def _headless_instead(
         f"dentdemo: {why}; rendering the same scene headless instead ({frames} frames) to {out}",
         file=sys.stderr,
     )
-    render_headless(path, args.materials, frames, out, args.size, quality=args.quality)
+    gltf = check_gltf(args.gltf)
+    render_headless(path, args.materials, frames, out, args.size, quality=args.quality, gltf=gltf)
     print(f"wrote {out}")
+    if gltf is not None:
+        print(f"wrote {gltf}")
     return 0

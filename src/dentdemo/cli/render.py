@@ -5,7 +5,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from dentdemo.cli.args import add_quality, add_scene, command, float_in, int_in, size_wxh
+from dentdemo.cli.args import (
+    add_gltf,
+    add_quality,
+    add_scene,
+    check_gltf,
+    command,
+    float_in,
+    int_in,
+    size_wxh,
+)
 from dentdemo.errors import DentdemoError
 from dentdemo.extras import require_app
 from dentdemo.outputs import check_output_dir, check_output_file
@@ -49,6 +58,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--video",
         metavar="FILE",
         help="also write every frame to a video: .mp4 (H.264) or .gif, at the scene's frame rate",
+    )
+    add_gltf(
+        p, "also write every body as it is after the last frame, with its normal and height maps"
     )
     p.add_argument(
         "--eye",
@@ -104,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
             require_app("--video: an MP4", "imageio_ffmpeg")
         if video.suffix.lower() == ".mp4" and (args.size[0] % 2 or args.size[1] % 2):
             raise DentdemoError(f"--video: H.264 needs an even --size, got {args.size}")
+    gltf = check_gltf(args.gltf)
     save_state = Path(args.save_state) if args.save_state else None
     if save_state is not None:
         check_output_dir("--save-state", save_state)
@@ -125,6 +138,9 @@ def run(args: argparse.Namespace) -> int:
         fov=args.fov,
         video=video,
         progress=True,
+        gltf=gltf,
     )
     print(f"wrote {args.out}")
+    if gltf is not None:
+        print(f"wrote {gltf}")
     return 0
