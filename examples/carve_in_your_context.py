@@ -82,8 +82,15 @@ def perspective(fov_deg: float, aspect: float, near: float, far: float) -> np.nd
     return out
 
 
-def run(ctx: moderngl.Context, out: Path, press: bool = True, size=(480, 360)) -> dict:
-    """Make a torus, dent it with a ball (unless `press` is False), render it to `out`."""
+def run(
+    ctx: moderngl.Context,
+    out: Path,
+    press: bool = True,
+    size=(480, 360),
+    gltf: Path | None = None,
+) -> dict:
+    """Make a torus, dent it with a ball (unless `press` is False), render it to `out` and,
+    with `gltf`, export it there (glTF 2.0: Blender, web viewers) with its normal map."""
     # A trimesh torus without texture coordinates, lying flat (axis +Y): dentdemo gives it a
     # unique atlas (one warning). dentdemo.mesh_from_triangles(positions, indices, uvs) does the
     # same for a host's own arrays.
@@ -126,6 +133,11 @@ def run(ctx: moderngl.Context, out: Path, press: bool = True, size=(480, 360)) -
     pixels = np.frombuffer(fbo.read(components=3), dtype=np.uint8).reshape(size[1], size[0], 3)
     Image.fromarray(pixels[::-1]).save(out)
 
+    if gltf is not None:
+        dentdemo.export_gltf(
+            gltf, [target, ball], names=["torus", "ball"], looks=["copper", "steel"]
+        )
+
     for thing in (vao, prog, vbo, ibo, fbo, carver, ball, target):
         thing.release()
     return {"pressed": bool(pressed), "depth_m": depth, "image": str(out)}
@@ -135,9 +147,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="dent.png", help="image to write")
     parser.add_argument("--no-press", action="store_true", help="render without the dent")
+    parser.add_argument("--gltf", type=Path, help="also export the torus and the ball (.glb)")
     args = parser.parse_args()
     ctx = moderngl.create_context(standalone=True, backend="egl", require=330)
-    print(run(ctx, Path(args.out), press=not args.no_press))
+    print(run(ctx, Path(args.out), press=not args.no_press, gltf=args.gltf))
 
 
 if __name__ == "__main__":

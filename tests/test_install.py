@@ -199,11 +199,12 @@ def test_core_install_runs_indent(core, tmp_path):
 def test_core_install_runs_the_example_host(core, tmp_path):
     example = tmp_path / "carve_in_your_context.py"
     shutil.copy(ROOT / "examples" / example.name, example)
-    image = tmp_path / "dent.png"
-    done = _in_core(core, core["python"], str(example), "--out", str(image))
+    image, glb = tmp_path / "dent.png", tmp_path / "torus.glb"
+    done = _in_core(core, core["python"], str(example), "--out", str(image), "--gltf", str(glb))
     assert done.returncode == 0, done.stderr[-2000:]
     assert "'pressed': True" in done.stdout
     assert Image.open(image).size == (480, 360)
+    assert glb.read_bytes()[:4] == b"glTF"  # the API's export: library side, no extra
 
 
 def test_core_install_demo_names_the_missing_extra(core):
@@ -214,6 +215,13 @@ def test_core_install_demo_names_the_missing_extra(core):
     assert "glfw" in lines[0] and "imgui-bundle" in lines[0]
     assert "pip install 'dentdemo[app]'" in lines[0]
     assert not (core["cwd"] / "dentdemo_demo.png").exists()
+
+
+def test_core_install_bench_window_names_the_missing_extra(core):
+    done = _in_core(core, core["dentdemo"], "bench", "--tiny", "--window")
+    assert done.returncode == 1
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "'dentdemo[app]'" in lines[0] and "glfw" in lines[0], done.stderr
 
 
 def test_core_install_mp4_names_the_missing_extra_before_any_work(core, tmp_path):
