@@ -341,7 +341,7 @@ def test_render_gltf_writes_a_valid_file(tmp_path):
         "--scene",
         ROOT / "assets" / "scenes" / "metal_row.toml",
         "--frames",
-        "40",
+        "10",
         "--size",
         "64x48",
         "--out",
