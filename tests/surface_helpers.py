@@ -139,3 +139,30 @@ def coarse_from_fine(fine: np.ndarray, factor: int) -> tuple[np.ndarray, np.ndar
 def press_mesh(shape: Shape, detail: int = 2) -> Mesh:
     """A built-in shape's mesh at the press tool's tessellation."""
     return shape_mesh(shape, Tessellation.press(detail))
+
+
+def texel_points(mesh: Mesh, size: int, model=None) -> np.ndarray:
+    """The world point (metres) at the centre of every chart texel of a `size`² map, rows along
+    v, NaN where no triangle of the atlas holds the centre: the mesh's uv triangles rasterised in
+    numpy (barycentric weights at (i + 0.5, j + 0.5) / size), independent of the GPU's."""
+    m = np.eye(4) if model is None else np.asarray(model, dtype=np.float64)
+    points = np.full((size, size, 3), np.nan)
+    uv = mesh.uvs.astype(np.float64) * size
+    pos = mesh.positions.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+    for tri in mesh.indices:
+        a, b, c = uv[tri]
+        lo = np.maximum(np.floor(np.minimum(np.minimum(a, b), c)).astype(int), 0)
+        hi = np.minimum(np.ceil(np.maximum(np.maximum(a, b), c)).astype(int), size)
+        e1, e2 = b - a, c - a
+        den = e1[0] * e2[1] - e1[1] * e2[0]
+        if hi[0] <= lo[0] or hi[1] <= lo[1] or abs(den) < 1e-12:
+            continue
+        x, y = np.meshgrid(np.arange(lo[0], hi[0]) + 0.5, np.arange(lo[1], hi[1]) + 0.5)
+        rx, ry = x - a[0], y - a[1]
+        b1 = (rx * e2[1] - ry * e2[0]) / den
+        b2 = (e1[0] * ry - e1[1] * rx) / den
+        inside = (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1)
+        w = np.stack([1 - b1 - b2, b1, b2], axis=-1)[inside]
+        rows, cols = np.nonzero(inside)
+        points[rows + lo[1], cols + lo[0]] = w @ pos[tri]
+    return points

@@ -4,12 +4,17 @@
 // plus the view depth of the unbumped surface and the bumped one (a built-in sphere or capsule:
 // of its smooth surface along the pixel's view line). The depth test runs on the depth
 // moved by the target's current height (bump-to-depth), so existing dents count in what is in front.
+// A surface in front of the tool's nearest point at first touch (pass 3's front, less the advance)
+// lies behind the tool, outside anything it sweeps: it is dropped, so it neither hides the surface
+// the tool meets nor takes a dent (a shelf over the tool, a ledge overhanging it).
 #include "camera.glsl"
 #include "../include/texel.glsl"
 #include "../include/bump_depth.glsl"
 #include "swept.glsl"
 
 uniform sampler2D u_height;  // target height map, R32F metres
+uniform sampler2D u_tool;    // pass 3: (back depth, coverage, -, front depth), metres
+uniform float u_advance;     // how far the tool was advanced along u_forward, metres
 
 in vec2 v_uv;
 in float v_depth;    // view depth of the mesh surface, metres
@@ -31,6 +36,9 @@ void main() {
     }
 #endif
     float bumped = bumped_depth(depth, h, n, u_forward);
+    vec4 tool = texelFetch(u_tool, ivec2(gl_FragCoord.xy), 0);
+    // (An open tool, such as a plate seen from below, may show no front face: then no test.)
+    if (tool.a < 0.5 * NO_FRONT && bumped < tool.a - u_advance - FRONT_TOLERANCE) discard;
     gl_FragDepth = window_depth(bumped);
     f_address = vec4(v_uv, depth, bumped);
 }

@@ -4,6 +4,8 @@
 
 uniform mat4 u_model;          // world from local, metres
 uniform mat3 u_normal_matrix;  // world from local, for normals
+uniform float u_near_clip;     // pass 2 (one clip distance): no surface nearer than this view
+                               // depth, metres: it lies behind the tool (docs/carve.md)
 
 in vec3 in_position;  // local metres
 in vec3 in_normal;    // local, unit
@@ -13,6 +15,7 @@ out vec2 v_uv;
 out float v_depth;    // metres along u_forward from u_eye
 out vec3 v_normal;    // world
 out vec3 v_world;     // world metres
+out float gl_ClipDistance[1];
 
 void main() {
     vec3 world = (u_model * vec4(in_position, 1.0)).xyz;
@@ -21,6 +24,7 @@ void main() {
     v_depth = dot(rel, u_forward);
     v_normal = u_normal_matrix * in_normal;
     v_world = world;
+    gl_ClipDistance[0] = v_depth - u_near_clip;
     float z = 2.0 * (v_depth - u_depth_range.x) / (u_depth_range.y - u_depth_range.x) - 1.0;
     gl_Position = vec4(dot(rel, u_right) / u_half_extent.x, dot(rel, u_up) / u_half_extent.y, z, 1.0);
 }

@@ -49,8 +49,8 @@ class CollisionCamera:
     slab: tuple[float, float]
     #: The target's largest texel side near the contact, metres (margins of pass 5).
     texel_metres: float
-    #: Triangles each pass draws (indices into the meshes): the target's in the view (pass 2),
-    #: the tool's in the view (pass 3), the target's in the view and the slab (passes 4 and 5).
+    #: Triangles each pass draws (indices into the meshes): the target's in the view and the
+    #: slab grown by the ring (passes 2, 4 and 5), the tool's in the view (pass 3).
     target_view: NDArray[np.int64]
     tool_view: NDArray[np.int64]
     target_texels: NDArray[np.int64]
@@ -181,7 +181,6 @@ def collision_camera(
     far_s = max(target_tris.s_range()[1], tool_tris.s_range()[1]) + bumps + 1e-4
     eye = origin + right * cx + up * cy + forward * near_s
     texel = max(texel_u, texel_v)
-    proud = max(target.max_height, 0.0) + max(tool.max_height, 0.0)
     half_x, half_y = cols * pitch_x / 2.0, rows * pitch_y / 2.0
     view = Rect(cx - half_x, cx + half_x, cy - half_y, cy + half_y)
     gather = (
@@ -189,14 +188,13 @@ def collision_camera(
         bound.slab[1] + SLAB_MARGIN_TEXELS * texel,
     )
     ring = RING_TEXELS * texel
-    # Occluders of the slab lie nearer than its far side; tool faces that can reach it lie beyond
-    # its near side (two pixels more for the bilinear neighbours at the rim).
-    texels, target_view = target_tris.meeting_slabs(
-        view, [(gather[0] - ring, gather[1] + ring), (-np.inf, gather[1] + ring)], exact_lists
-    )
-    (tool_view,) = tool_tris.meeting_slabs(
-        view, [(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf)], exact_lists
-    )
+    # Pass 2 sees the target from the slab's near side on (a nearer surface lies behind the tool:
+    # it neither hides the slab nor takes a dent), up to its far side; pass 3 draws all of the
+    # tool in the view, front faces too (pass 2 drops what lies in front of them).
+    (texels,) = target_tris.meeting_slabs(view, [(gather[0] - ring, gather[1] + ring)], exact_lists)
+    (tool_view,) = tool_tris.meeting_slabs(view, [None], exact_lists)
+    if not tool_tris.solid and not tool_tris.faces_away(tool_view):
+        return None  # an open tool (a plate) pushes only with faces turned away from the view
     return CollisionCamera(
         eye=eye,
         right=right,
@@ -207,7 +205,7 @@ def collision_camera(
         resolution=(int(cols), int(rows)),
         slab=(gather[0] - near_s, gather[1] - near_s),
         texel_metres=texel,
-        target_view=target_view,
+        target_view=texels,
         tool_view=tool_view,
         target_texels=texels,
         target_gutter=texels[target.mesh.chart_border()[texels]],

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.carve.camera import BodyPose, CollisionCamera, ContactFrame, collision_camera
-from dentdemo.carve.constants import NO_SURFACE, NO_TOOL, shader_defines
+from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
     camera_uniforms,
@@ -26,7 +26,7 @@ from dentdemo.carve.texel_passes import (
     texture_space_passes,
 )
 from dentdemo.gl.context import GLContext, release
-from dentdemo.gl.passes import Pass, PassState
+from dentdemo.gl.passes import Blend, Pass, PassState
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
 
@@ -78,7 +78,8 @@ class _Scratch:
 
     def __init__(self, ctx: moderngl.Context, size: int) -> None:
         self.address = ctx.texture((size, size), 4, dtype="f4")
-        self.tool_depth = ctx.texture((size, size), 2, dtype="f4")  # (view depth m, coverage)
+        # (back view depth m, coverage, -, front view depth m): pass 3.
+        self.tool_depth = ctx.texture((size, size), 4, dtype="f4")
         self.depth = ctx.depth_texture((size, size))
         self.address.filter = (moderngl.NEAREST, moderngl.NEAREST)
         # Pass 4 interpolates the tool's depth between pixels with the sampler; pass 3 clears only
@@ -91,9 +92,19 @@ class _Scratch:
         release(self.address_fbo, self.peel_fbo, self.address, self.tool_depth, self.depth)
 
 
-_SURFACE_STATE = {
-    "address": PassState(depth_test=True, depth_func="<", cull="back"),  # target front faces
-    "peel": PassState(depth_test=True, depth_func=">", cull="front"),  # tool back faces, farthest
+#: Pass 3's blend: the farthest back face and the coverage (red, green: MAX), the nearest front
+#: face (alpha: MIN); order-independent, so the result is the same whatever order faces come in.
+_PEEL_BLEND = Blend(
+    moderngl.ONE, moderngl.ONE, moderngl.ONE, moderngl.ONE, moderngl.MAX, moderngl.MIN
+)
+#: Passes 2 and 3: fixed-function state and the textures each samples.
+_SURFACE_PASSES = {
+    # The target's front faces from the slab's near side on (one clip distance: u_near_clip).
+    "address": (
+        PassState(depth_test=True, depth_func="<", cull="back", clip_distances=1),
+        ("u_height", "u_tool"),
+    ),
+    "peel": (PassState(blend=_PEEL_BLEND), ("u_height",)),  # the tool's faces, both sides
 }
 
 
@@ -116,9 +127,9 @@ class Carver:
                     defines=shader_defines(SWEPT=int(swept)),
                 ),
                 state,
-                ("u_height",),
+                samplers,
             )
-            for name, state in _SURFACE_STATE.items()
+            for name, (state, samplers) in _SURFACE_PASSES.items()
             for swept in (False, True)
         }
         self._texel = texture_space_passes(gl)
@@ -155,13 +166,13 @@ class Carver:
         return jobs
 
     def _run(self, jobs: list[CarveJob]) -> None:
-        """Passes 2-5 of every direction."""
-        with self._timed("address"):
-            for slot, job in zip(self._slots, jobs, strict=False):
-                self._address_pass(slot, job)
+        """Passes 3, 2, 4 and 5 of every direction (pass 2 reads pass 3's front faces)."""
         with self._timed("peel"):
             for slot, job in zip(self._slots, jobs, strict=False):
                 self._peel_pass(slot, job)
+        with self._timed("address"):
+            for slot, job in zip(self._slots, jobs, strict=False):
+                self._address_pass(slot, job)
         with self._timed("gather"):
             for slot, job in zip(self._slots, jobs, strict=False):
                 self._gather_pass(slot, job)
@@ -190,9 +201,8 @@ class Carver:
         jobs = self.plan(target, tool, contact, target_depth, tool_depth)
         with preserved(self.gl.ctx):
             for slot, job in zip(self._slots, jobs, strict=False):
-                self._address_pass(slot, job)
-            for slot, job in zip(self._slots, jobs, strict=False):
                 self._peel_pass(slot, job)
+                self._address_pass(slot, job)
         return jobs
 
     def slot(self, index: int) -> _Scratch:
@@ -264,6 +274,8 @@ class Carver:
                 **view,
                 **model_uniforms(target.model),
                 **swept_uniforms(target.gpu_mesh.mesh, target.model),
+                "u_near_clip": camera.ring_slab[0],
+                "u_advance": depth,
             },
             {**view, **model_uniforms(advanced), **swept_uniforms(tool.gpu_mesh.mesh, advanced)},
         )
@@ -271,10 +283,10 @@ class Carver:
     # -- passes 2 and 3 ------------------------------------------------------------------------
     def _address_pass(self, slot: _Scratch, job: CarveJob) -> None:
         clear = (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0)  # (u, v, ..., depth: the far plane)
-        self._camera_pass("address", slot.address_fbo, clear, job, job.target)
+        self._camera_pass("address", slot.address_fbo, clear, job, job.target, (slot.tool_depth,))
 
     def _peel_pass(self, slot: _Scratch, job: CarveJob) -> None:
-        clear = (NO_TOOL, NO_TOOL, 0.0, 0.0, 0.0)  # (depth, coverage, ..., depth: the near plane)
+        clear = (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0)  # (back, coverage, -, front; no depth test)
         self._camera_pass("peel", slot.peel_fbo, clear, job, job.tool)
 
     def _camera_pass(
@@ -284,9 +296,11 @@ class Carver:
         clear: tuple[float, float, float, float, float],
         job: CarveJob,
         body: CarveBody,
+        inputs: tuple[moderngl.Texture, ...] = (),
     ) -> None:
         """Passes 2 and 3: `body` (the target or the tool) drawn by the collision camera into its
-        own viewport of `fbo`, cleared first to `clear` (colour, then depth)."""
+        own viewport of `fbo`, cleared first to `clear` (colour, then depth), sampling its own
+        height map and `inputs`."""
         view = (0, 0, *job.camera.resolution)
         fbo.clear(*clear[:4], depth=clear[4], viewport=view)
         target = body is job.target
@@ -297,7 +311,7 @@ class Carver:
             fbo,
             view,
             body.gpu_mesh.drawer(triangles, name),
-            (body.maps.height,),
+            (body.maps.height, *inputs),
             uniforms,
         )
 

@@ -9,6 +9,11 @@ NO_TOOL = 0.0
 #: Pass 4 takes the sampler's bilinear tool depth only where the four pixels around a texel all
 #: see the tool: the filtered coverage is then 1 (this bound leaves room for filter rounding).
 FULL_COVERAGE = 0.9999
+#: Pass 3's clear value of the tool's nearest depth (alpha, blended MIN): no front face there.
+NO_FRONT = 1e30
+#: Pass 2 keeps a target surface that lies this far (metres) in front of the tool's first-touch
+#: front face at the same pixel: float32 rounding of two depths computed at one pixel centre.
+FRONT_TOLERANCE = 1e-6
 #: Grazing clamp: the depth-to-height stretch 1/cos(normal, press direction) is capped at 1/MIN_COS.
 MIN_COS = 0.2
 #: A gutter texel (outside every chart) takes a value when its centre lies within this many texels
@@ -31,6 +36,8 @@ def shader_defines(**extra: object) -> dict[str, object]:
     """The carve constants as GLSL `#define`s (floats written so GLSL parses them as floats)."""
     defines: dict[str, object] = {
         "NO_TOOL": repr(float(NO_TOOL)),
+        "NO_FRONT": repr(float(NO_FRONT)),
+        "FRONT_TOLERANCE": repr(float(FRONT_TOLERANCE)),
         "FULL_COVERAGE": repr(float(FULL_COVERAGE)),
         "MIN_COS": repr(float(MIN_COS)),
         "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),

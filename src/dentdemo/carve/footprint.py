@@ -23,6 +23,9 @@ from dentdemo.mesh.mesh import Mesh
 Array = NDArray[np.float64]
 Indices = NDArray[np.int64]
 
+#: Overlap extents no wider than this (metres) only touch: a solid tangent to a surface.
+TOUCH_METRES = 1e-9
+
 
 @dataclass(frozen=True)
 class Rect:
@@ -79,6 +82,8 @@ class Projected:
         self._faces = (
             None if bound is None or bound.triangles is None else self._to_camera(bound.triangles)
         )
+        #: Whether the mesh bounds a solid (see Mesh.encloses_volume).
+        self.solid = mesh.encloses_volume()
         self._s_range: tuple[float, float] | None = None
         self._rect: Rect | None = None
 
@@ -90,6 +95,18 @@ class Projected:
     def corners(self, which: Indices) -> Array:
         """(k, 3, 3) camera (x, y, s) of the corners of triangles `which`."""
         return self._to_camera(self._mesh.corner_array()[which])
+
+    def faces_away(self, which: Indices) -> bool:
+        """Whether any of triangles `which` faces away from the camera (its outward normal has
+        a positive s: pass 3's back faces). The camera's axes (x, y, s) are left-handed
+        (x cross y = -s), so the corners' cross product in these coordinates is minus the
+        normal."""
+        if len(which) == 0:
+            return False
+        a, b, c = np.moveaxis(self.corners(which), 1, 0)
+        e1, e2 = b - a, c - a
+        negated_s = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        return bool((negated_s < 0.0).any())
 
     def spheres(self, which: Indices) -> tuple[Array, Array]:
         """Camera-space bounding spheres (centres (k, 3), radii (k,)) of triangles `which`."""
@@ -321,6 +338,13 @@ def overlap(
     if s_lo is None or s_hi is None:
         return None
     bumps = max(target_max_height, 0.0) + max(tool_max_height, 0.0)
+    # No target point nearer than a solid tool's nearest point (advanced) can lie inside it: a
+    # concave target's surfaces behind the tool (a shelf over it, the far wall of a ring around
+    # it) stay out of the slab, whatever the target's nearest point is. An open tool (a plate)
+    # has no nearest point of its solid.
+    tool_lo = tool.s_extreme(near_target, lowest=True) if tool.solid else None
+    if tool_lo is not None:
+        s_lo = max(s_lo, tool_lo - bumps)
     if s_hi + bumps < s_lo:
         return None
     # A target point can move if its bumped point lies inside the bumped tool; a tool point can
@@ -330,6 +354,8 @@ def overlap(
     if target_rect is None or tool_rect is None:
         return None
     rect = target_rect.intersect(tool_rect)
-    if rect is None:
+    # Extents that only touch (a tool sliding along the surface, or moving off it) hold no
+    # overlap: TOUCH_METRES allows for the rounding of a tangent solid's extent.
+    if rect is None or min(rect.x1 - rect.x0, rect.y1 - rect.y0) <= TOUCH_METRES:
         return None
     return Overlap(rect, (s_lo, s_hi + bumps))

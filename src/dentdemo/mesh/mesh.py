@@ -124,6 +124,18 @@ class Mesh:
             return cached
         return cached[0][which], cached[1][which]
 
+    def encloses_volume(self) -> bool:
+        """Whether the surface is closed (its holes, if any, span at most MAX_OPEN_SHARE of its
+        area): then it bounds a solid, and its faces seen from outside are its front faces. A
+        plate or a bowl does not. Cached."""
+        cached = getattr(self, "_encloses_cache", None)
+        if cached is None:
+            from dentdemo.model.shapes import MAX_OPEN_SHARE, mesh_volume
+
+            cached = mesh_volume(self.positions, self.indices)[1] <= MAX_OPEN_SHARE
+            self._encloses_cache = cached
+        return bool(cached)
+
     def chart_border(self) -> NDArray[np.bool_]:
         """(m,) True for triangles with an edge on a UV chart's border (an edge no other triangle
         shares: seams split vertices, so seams count). Only these touch gutter texels. Cached."""
