@@ -151,8 +151,11 @@ def test_both_bodies_dented_each_by_its_own_depth(gl, carver):
 
 
 def test_tilted_press_leaves_the_tilted_footprint(gl, carver):
-    # The method's model: along every ray parallel to the press direction D the plate point moves
-    # to where the ray leaves the tool; as a height along the normal that is -penetration / cos.
+    # What a press means (docs/carve.md): the ball moves `depth` along D, and each plate point
+    # inside the solid it sweeps moves down along the plate's normal until it leaves that solid
+    # (test_carve_oblique's oracle: the lowest point of the spheres along the sweep).
+    from test_carve_oblique import swept_ball_depth
+
     theta = math.radians(30)
     direction = np.array([math.sin(theta), -math.cos(theta), 0.0])
     radius, depth = 0.05, 0.01
@@ -160,15 +163,10 @@ def test_tilted_press_leaves_the_tilted_footprint(gl, carver):
     carver.carve(s.target, s.tool, s.contact, depth)
     h = heights(gl, s.target)
     x, z = plate_xz(h.shape, 1.0)
-    centre = np.array([0.0, radius, 0.0]) + direction * depth  # sphere centre after the press
-    # Ray from each plate point p along D: t where it leaves the sphere (far root).
-    p = np.stack([x, np.zeros_like(x), z], -1)
-    oc = p - centre
-    b = oc @ direction
-    c = (oc**2).sum(-1) - radius**2
-    disc = b * b - c
-    t_far = -b + np.sqrt(np.maximum(disc, 0.0))
-    expected = np.where((disc > 0) & (t_far > 0), -t_far / math.cos(theta), 0.0)
+    start = np.array([0.0, radius, 0.0])  # touching the plate at the origin
+    near = (np.abs(x) < 2 * radius) & (np.abs(z) < 2 * radius)
+    expected = np.zeros_like(h, dtype=np.float64)
+    expected[near] = -swept_ball_depth(x[near], z[near], start, start + direction * depth, radius)
     region = (expected < 0) | (h < 0)
     rms = np.sqrt(np.mean((h[region] - expected[region]) ** 2))
     assert rms <= 0.02 * depth

@@ -14,6 +14,13 @@ NO_FRONT = 1e30
 #: Pass 2 keeps a target surface that lies this far (metres) in front of the tool's first-touch
 #: front face at the same pixel: float32 rounding of two depths computed at one pixel centre.
 FRONT_TOLERANCE = 1e-6
+#: Pass 4 finds how far a texel's point moves inwards along its normal to leave the tool's swept
+#: solid by at most this many fixed-point steps (each a look-up of the tool's depth), stopping
+#: once a step changes it by no more than EXIT_SETTLED_METRES. A press along the surface normal
+#: needs none. Each step shrinks the error by about tan^2 of the angle between the press and the
+#: normal (1/3 at 30 degrees).
+EXIT_STEPS = 8
+EXIT_SETTLED_METRES = 1e-7
 #: Grazing clamp: the depth-to-height stretch 1/cos(normal, press direction) is capped at 1/MIN_COS.
 MIN_COS = 0.2
 #: A gutter texel (outside every chart) takes a value when its centre lies within this many texels
@@ -40,6 +47,8 @@ def shader_defines(**extra: object) -> dict[str, object]:
         "FRONT_TOLERANCE": repr(float(FRONT_TOLERANCE)),
         "FULL_COVERAGE": repr(float(FULL_COVERAGE)),
         "MIN_COS": repr(float(MIN_COS)),
+        "EXIT_STEPS": str(EXIT_STEPS),
+        "EXIT_SETTLED_METRES": repr(float(EXIT_SETTLED_METRES)),
         "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),
         "NO_SURFACE": repr(float(NO_SURFACE)),
         **{

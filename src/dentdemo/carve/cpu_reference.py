@@ -6,6 +6,7 @@ the GPU path to float32 rounding."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,7 +14,14 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera, ContactFrame
 from dentdemo.carve.carver import CarveBody, CarveJob, Carver
-from dentdemo.carve.constants import CHART_SELF, GUTTER_REACH_TEXELS, MIN_COS, NO_SURFACE
+from dentdemo.carve.constants import (
+    CHART_SELF,
+    EXIT_SETTLED_METRES,
+    EXIT_STEPS,
+    GUTTER_REACH_TEXELS,
+    MIN_COS,
+    NO_SURFACE,
+)
 from dentdemo.carve.texel_passes import swept_uniforms
 from dentdemo.gl.context import GLContext
 
@@ -138,8 +146,14 @@ def gather(
     rel = t.world - cam.eye
     depth = rel @ forward
     cols, rows = cam.resolution
-    px = (rel @ cam.right / cam.half_extent[0] * 0.5 + 0.5) * cols - 0.5
-    py = (rel @ cam.up / cam.half_extent[1] * 0.5 + 0.5) * rows - 0.5
+
+    def pixel(r: Array) -> tuple[Array, Array]:
+        """Continuous camera-pixel coordinates of offsets `r` from the eye."""
+        x = (r @ cam.right / cam.half_extent[0] * 0.5 + 0.5) * cols - 0.5
+        y = (r @ cam.up / cam.half_extent[1] * 0.5 + 0.5) * rows - 0.5
+        return x, y
+
+    px, py = pixel(rel)
     ix, iy = np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
     seen = (cos_view > 0) & (ix >= 0) & (iy >= 0) & (ix < cols) & (iy < rows)
     ixc, iyc = np.clip(ix, 0, cols - 1), np.clip(iy, 0, rows - 1)
@@ -149,7 +163,82 @@ def gather(
     diagonal = float(np.hypot(*cam.pixel_metres))
     seen &= np.abs(addr[:, 2] - depth) <= diagonal * (1.0 + slope)
 
-    def sample(x, y):
+    stretch = 1.0 / np.maximum(cos_view, MIN_COS)
+    tool_depth, found = _tool_depth_at(tool, px, py)
+    seen &= found
+    with np.errstate(invalid="ignore", over="ignore"):
+        inward = (tool_depth - depth) * stretch
+        # Along the normal, not the view: where the point leaves the swept solid (gather.frag).
+        moving = seen & (inward > 0) & (cos_view < 1.0 - 1e-6)
+        if moving.any():
+            inward[moving] = _normal_exit(
+                lambda r: _tool_depth_at(tool, *pixel(r)),
+                rel[moving],
+                t.normal[moving],
+                depth[moving],
+                stretch[moving],
+                inward[moving],
+            )
+        h = -inward
+    seen &= h < ceiling
+    return np.where(seen, np.maximum(h, -max_dent_depth), np.nan)
+
+
+def _normal_exit(
+    tool_at: Callable[[Array], tuple[Array, NDArray[np.bool_]]],
+    rel: Array,
+    n: Array,
+    depth: Array,
+    stretch: Array,
+    a0: Array,
+) -> Array:
+    """gather.frag's normal_exit for many texels at once: false position with the Illinois step
+    between a point inside the swept solid (lo) and one out of it (hi), metres inwards."""
+
+    def beyond(a: Array, which: NDArray[np.bool_]) -> tuple[Array, NDArray[np.bool_]]:
+        back, on = tool_at(rel[which] - n[which] * a[:, None])
+        return depth[which] + a / stretch[which] - back, on
+
+    every = np.ones(len(a0), dtype=bool)
+    lo, f_lo, hi = np.zeros_like(a0), -a0 / stretch, a0.copy()
+    f_hi, on_hi = beyond(hi, every)
+    for _ in range(4):  # still inside: look further in
+        grow = on_hi & (f_hi < 0.0)
+        if not grow.any():
+            break
+        lo[grow], f_lo[grow] = hi[grow], f_hi[grow]
+        hi[grow] *= 2.0
+        f_hi[grow], on_hi[grow] = beyond(hi[grow], grow)
+    a = hi.copy()
+    active = ~(on_hi & (f_hi < 0.0))
+    for _ in range(EXIT_STEPS):
+        if not active.any():
+            break
+        i = np.flatnonzero(active)
+        step = np.where(
+            on_hi[i],
+            (lo[i] * f_hi[i] - hi[i] * f_lo[i]) / np.where(on_hi[i], f_hi[i] - f_lo[i], 1.0),
+            0.5 * (lo[i] + hi[i]),
+        )
+        a[i] = step
+        f, on = beyond(step, active)
+        done = on & (np.abs(f) <= EXIT_SETTLED_METRES)
+        inside = on & (f < 0.0) & ~done
+        out = ~on | ((f >= 0.0) & ~done)
+        lo[i[inside]], f_lo[i[inside]] = step[inside], f[inside]
+        f_hi[i[inside]] *= 0.5
+        hi[i[out]], f_hi[i[out]], on_hi[i[out]] = step[out], f[out], on[out]
+        f_lo[i[out]] *= 0.5
+        active[i[done]] = False
+    return a
+
+
+def _tool_depth_at(tool: np.ndarray, px: Array, py: Array) -> tuple[Array, NDArray[np.bool_]]:
+    """Pass 4's tool depth at continuous pixel positions: bilinear where the four pixels around
+    a position all see the tool, else the nearest pixel's; and whether there is one."""
+    rows, cols = tool.shape[:2]
+
+    def sample(x: NDArray[np.int64], y: NDArray[np.int64]) -> tuple[Array, NDArray[np.bool_]]:
         ok = (x >= 0) & (y >= 0) & (x < cols) & (y < rows)
         value = tool[np.clip(y, 0, rows - 1), np.clip(x, 0, cols - 1)]
         return value[:, 0], ok & (value[:, 1] > 0.5)
@@ -161,14 +250,10 @@ def gather(
     d01, o01 = sample(bx, by + 1)
     d11, o11 = sample(bx + 1, by + 1)
     bilinear = (d00 * (1 - fx) + d10 * fx) * (1 - fy) + (d01 * (1 - fx) + d11 * fx) * fy
+    ix, iy = np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
     nearest, has_nearest = sample(ix, iy)
     all4 = o00 & o10 & o01 & o11
-    tool_depth = np.where(all4, bilinear, nearest)
-    seen &= all4 | has_nearest
-    with np.errstate(invalid="ignore", over="ignore"):
-        h = -(tool_depth - depth) / np.maximum(cos_view, MIN_COS)
-    seen &= h < ceiling
-    return np.where(seen, np.maximum(h, -max_dent_depth), np.nan)
+    return np.where(all4, bilinear, nearest), all4 | has_nearest
 
 
 # -- texel enumeration (what passes 4 and 5 rasterise) --------------------------------------------
