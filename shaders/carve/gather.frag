@@ -18,10 +18,11 @@
 #include "chart.glsl"
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
-uniform sampler2D u_tool_depth;  // pass 3: (the tool's bumped view depth m, coverage), LINEAR
+uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front), LINEAR
 uniform float u_min_height;      // -max_dent_depth of the target, metres
 uniform float u_ceiling;         // no texel of the target is higher than this, metres
 uniform float u_pixel_diagonal;  // a camera pixel's diagonal, metres
+uniform float u_advance;         // how far the tool was advanced along u_forward, metres
 
 out float f_height;
 
@@ -49,11 +50,14 @@ bool tool_depth_at(vec2 p, out float depth) {
 }
 
 // How far beyond the swept solid's back (metres along the view) the texel's point lies once moved
-// `a` metres inwards along its normal: < 0 inside. False where its pixel is off the tool (out).
-bool beyond(vec3 rel, vec3 n, float depth, float stretch, float a, out float f) {
+// `a` metres inwards along its normal: < 0 inside. False where its pixel is off the tool (out);
+// `seen` false where it leaves the camera (unknown).
+bool beyond(vec3 rel, vec3 n, float depth, float stretch, float a, out float f, out bool seen) {
     float back;
     f = 0.0;
-    if (!tool_depth_at(camera_pixel(rel - n * a), back)) return false;
+    vec2 p = camera_pixel(rel - n * a);
+    seen = inside_camera(ivec2(floor(p + 0.5)));
+    if (!tool_depth_at(p, back)) return false;
     f = depth + a / stretch - back;
     return true;
 }
@@ -64,19 +68,27 @@ bool beyond(vec3 rel, vec3 n, float depth, float stretch, float a, out float f) 
 float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float a0) {
     float lo = 0.0, f_lo = -a0 / stretch;  // the point itself: inside by the tool's depth
     float hi = a0, f_hi;
-    bool on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
+    bool seen;
+    bool on_hi = beyond(rel, n, depth, stretch, hi, f_hi, seen);
+    if (!seen) return a0;  // the camera does not show where it goes: the view-line estimate
     for (int k = 0; k < 4 && on_hi && f_hi < 0.0; ++k) {  // still inside: look further in
+        float f_more;
+        bool more = beyond(rel, n, depth, stretch, 2.0 * hi, f_more, seen);
+        if (!seen) return hi;
         lo = hi;
         f_lo = f_hi;
         hi *= 2.0;
-        on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
+        f_hi = f_more;
+        on_hi = more;
     }
     if (on_hi && f_hi < 0.0) return hi;
     float a = hi;
     for (int k = 0; k < EXIT_STEPS; ++k) {
-        a = on_hi ? (lo * f_hi - hi * f_lo) / (f_hi - f_lo) : 0.5 * (lo + hi);
+        float next = on_hi ? (lo * f_hi - hi * f_lo) / (f_hi - f_lo) : 0.5 * (lo + hi);
         float f;
-        bool on = beyond(rel, n, depth, stretch, a, f);
+        bool on = beyond(rel, n, depth, stretch, next, f, seen);
+        if (!seen) break;
+        a = next;
         if (on && abs(f) <= EXIT_SETTLED_METRES) break;
         if (on && f < 0.0) {
             lo = a;
@@ -93,6 +105,7 @@ float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float a0) {
 }
 
 void main() {
+    vec3 face = texel_face_normal();
 #if GUTTER
     if ((chart_bits(ivec2(gl_FragCoord.xy)) & CHART_SELF) != 0u) discard;  // GUTTER 0 has it
 #endif
@@ -103,17 +116,48 @@ void main() {
     swept_snap(world, n);  // a built-in sphere or capsule: its smooth surface
 #endif
     float cos_view = -dot(n, u_forward);
-    if (!(cos_view > 0.0)) discard;  // faces away from the camera
+#if SWEPT
+    bool front = cos_view > 0.0;  // the solid's own normal
+#else
+    // A mesh is its triangles: a texel faces the camera where its triangle does (the address pass
+    // culls by the triangle's winding), also where the interpolated normal of a sharply curved
+    // triangle turns away (then the grazing clamp MIN_COS applies below).
+    bool front = cos_view > 0.0 || dot(face, u_forward) < 0.0;
+#endif
+    if (!front) discard;  // faces away from the camera
     vec3 rel = world - u_eye;
     float depth = dot(rel, u_forward);  // view depth of the texel's point, metres
     vec2 p = camera_pixel(rel);
-    ivec2 pixel = ivec2(floor(p + 0.5));
-    if (!inside_camera(pixel)) discard;
-    vec4 address = texelFetch(u_address, pixel, 0);
-    if (address.x <= NO_SURFACE) discard;
-    // Hidden: the surface in front at that pixel is elsewhere (beyond the slope over a pixel).
+    // Hidden: each of the four pixels around Q that the camera has sees a surface nearer than
+    // this texel's by more than the slope over a pixel. The texel's surface at a pixel is its own
+    // point or, for a mesh, the plane of its triangle (which the address pass drew: a sharply
+    // curved triangle is steeper than its interpolated normal says) extended to the pixel's
+    // centre. A pixel that sees no surface or one farther away (past the silhouette, or past a
+    // triangle narrower than a pixel) hides nothing; where a pixel spans several texels, the
+    // nearest one alone may lie past the edge of the texel's face.
     float slope = sqrt(max(1.0 - cos_view * cos_view, 0.0)) / max(cos_view, MIN_COS);
-    if (abs(address.z - depth) > u_pixel_diagonal * (1.0 + slope)) discard;
+    float tolerance = u_pixel_diagonal * (1.0 + slope);
+    float face_s = dot(face, u_forward);
+    bool plane = SWEPT == 0 && abs(face_s) > 1e-6 * length(face);
+    vec2 pixel_metres = 2.0 * u_half_extent / vec2(u_resolution);
+    ivec2 base = ivec2(floor(p));
+    bool seen = false;
+    for (int k = 0; k < 4; ++k) {
+        ivec2 q = base + ivec2(k & 1, k >> 1);
+        if (!inside_camera(q)) continue;
+        vec4 address = texelFetch(u_address, q, 0);
+        float own = depth;
+        if (plane) {
+            vec2 step = (vec2(q) - p) * pixel_metres;
+            own = min(own, depth - (dot(face, u_right) * step.x + dot(face, u_up) * step.y) / face_s);
+        }
+        seen = seen || address.x <= NO_SURFACE || address.z >= own - tolerance;
+    }
+    if (!seen) discard;
+    // Behind the tool: in front of its nearest face at first touch (pass 3's front, less the
+    // advance), as a ledge overhanging it is; pass 2 drew no such surface.
+    vec4 extent = inside_camera(ivec2(floor(p + 0.5))) ? texelFetch(u_tool_depth, ivec2(floor(p + 0.5)), 0) : vec4(NO_FRONT);
+    if (extent.a < 0.5 * NO_FRONT && depth < extent.a - u_advance - tolerance) discard;
     float tool;
     if (!tool_depth_at(p, tool)) discard;
     float stretch = 1.0 / max(cos_view, MIN_COS);

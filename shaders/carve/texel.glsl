@@ -52,6 +52,21 @@ bool texel_surface(out vec3 world, out vec3 normal, out ivec2 source) {
 }
 #endif
 
+// The normal of the texel's triangle (world, not normalised) by the mesh's winding: the side from
+// which the triangle is a front face, as the collision camera's passes cull it. Call it in uniform
+// control flow (before any discard): it may take screen-space derivatives.
+vec3 texel_face_normal() {
+#if GUTTER
+    return cross(t_world[1] - t_world[0], t_world[2] - t_world[0]);
+#else
+    // The world edges are the uv edges through dP/du and dP/dv: e1 x e2 = det(uv edges) (dP/du x
+    // dP/dv), and the uv winding (counter-clockwise: det > 0) is what makes the fragment front
+    // facing in this texture-space draw (every pass sets the front face to "ccw").
+    vec3 n = cross(dFdx(v_world), dFdy(v_world));
+    return gl_FrontFacing ? n : -n;
+#endif
+}
+
 // The texel's metric (a, b, c), metres: one texel step along +u moves the surface by a T, one
 // along +v by b T + c B (T, B unit and perpendicular in the surface, B on the side of +v). Call it
 // in uniform control flow (before any discard): it may take screen-space derivatives.

@@ -119,12 +119,14 @@ def collision_camera(
     max_resolution: int,
     loose: bool = False,
     exact_lists: bool = True,
+    advance: float = 0.0,
 ) -> CollisionCamera | None:
     """The camera for carving `target` by `tool` (already advanced by the dent depth) at `contact`.
 
     None when the bodies cannot overlap. `loose` bounds the view by both bodies' bounding spheres
     instead of the footprint (for tests of the footprint bound only). `exact_lists` False makes
     the passes' triangle lists whole clusters (less CPU, more triangles for the GPU to clip).
+    `advance`: how far the tool was moved along the press from first touch, metres.
     """
     model = np.asarray(target.model, dtype=np.float64)
     linear = model[:3, :3]
@@ -154,7 +156,7 @@ def collision_camera(
     axes = np.stack([right, up, forward])
     target_tris = Projected(target.mesh, model, origin, axes)
     tool_tris = Projected(tool.mesh, tool.model, origin, axes)
-    bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height)
+    bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)
     if bound is None:
         return None
     if loose:
@@ -193,8 +195,12 @@ def collision_camera(
     # tool in the view, front faces too (pass 2 drops what lies in front of them).
     (texels,) = target_tris.meeting_slabs(view, [(gather[0] - ring, gather[1] + ring)], exact_lists)
     (tool_view,) = tool_tris.meeting_slabs(view, [None], exact_lists)
+    # An open body (a plate) has material on one side only: an open tool pushes only with faces
+    # turned away from the view, an open target takes dents only in faces turned towards it.
     if not tool_tris.solid and not tool_tris.faces_away(tool_view):
-        return None  # an open tool (a plate) pushes only with faces turned away from the view
+        return None
+    if not target_tris.solid and not target_tris.faces_away(texels, away=False):
+        return None
     return CollisionCamera(
         eye=eye,
         right=right,

@@ -261,6 +261,7 @@ class Carver:
             self.max_resolution,
             loose=self.loose_camera,
             exact_lists=self.exact_lists,
+            advance=depth,
         )
         if camera is None:
             return None

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +21,7 @@ from dentdemo.carve.constants import (
     EXIT_STEPS,
     GUTTER_REACH_TEXELS,
     MIN_COS,
+    NO_FRONT,
     NO_SURFACE,
 )
 from dentdemo.carve.texel_passes import swept_uniforms
@@ -40,6 +42,8 @@ class Texels:
     normal: Array
     per_u: Array
     per_v: Array
+    #: The normal of each texel's triangle by the mesh's winding (k, 3), not normalised.
+    face: Array
     source_rows: NDArray[np.int64]
     source_cols: NDArray[np.int64]
     gutter: NDArray[np.bool_]
@@ -86,12 +90,17 @@ class CpuReference:
         cam = job.camera
         view = (0, 0, *cam.resolution)
         address = self.gl.read_region(slot.address_fbo, view, 4, 0).astype(np.float64)
-        tool = self.gl.read_region(slot.peel_fbo, view, 2, 0).astype(np.float64)  # depth, cover
+        # (back depth, coverage, -, front depth)
+        tool = self.gl.read_region(slot.peel_fbo, view, 4, 0).astype(np.float64)
         _, _, mask = self.mirror(job.target)
         texels = footprint_texels(job.target, cam, cam.slab, mask)
         snap_to_solid(texels, job.target)
         maps = job.target.maps
-        height = gather(texels, cam, address, tool, maps.max_height, maps.max_dent_depth)
+        swept = bool(swept_uniforms(job.target.gpu_mesh.mesh, job.target.model)["u_swept"])
+        advance = float(job.target_uniforms["u_advance"])  # type: ignore[arg-type]
+        height = gather(
+            texels, cam, address, tool, maps.max_height, maps.max_dent_depth, advance, swept
+        )
         keep = np.isfinite(height)
         return texels.rows[keep], texels.cols[keep], height[keep]
 
@@ -139,10 +148,15 @@ def gather(
     tool: np.ndarray,
     ceiling: float,
     max_dent_depth: float,
+    advance: float = 0.0,
+    swept: bool = False,
 ) -> Array:
-    """Pass 4 for every texel of `t`: the new height (metres), NaN where nothing changes."""
+    """Pass 4 for every texel of `t`: the new height (metres), NaN where nothing changes.
+    `advance`: how far the tool was advanced (metres); `swept`: the texels lie on a built-in
+    sphere or capsule's own solid (SWEPT 1)."""
     forward = np.asarray(cam.forward, dtype=np.float64)
     cos_view = -(t.normal @ forward)
+    face_s = t.face @ forward
     rel = t.world - cam.eye
     depth = rel @ forward
     cols, rows = cam.resolution
@@ -155,13 +169,30 @@ def gather(
 
     px, py = pixel(rel)
     ix, iy = np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
-    seen = (cos_view > 0) & (ix >= 0) & (iy >= 0) & (ix < cols) & (iy < rows)
-    ixc, iyc = np.clip(ix, 0, cols - 1), np.clip(iy, 0, rows - 1)
-    addr = address[iyc, ixc]
-    seen &= addr[:, 0] > NO_SURFACE
+    # Facing: the interpolated normal, or a mesh's triangle (a swept solid's normal is its own).
+    front = cos_view > 0 if swept else (cos_view > 0) | (face_s < 0)
+    # Hidden: each of the four pixels around the point sees a nearer surface than the texel's
+    # own (its point, or its triangle's plane at the pixel), by more than the slope over a pixel.
     slope = np.sqrt(np.maximum(1.0 - cos_view**2, 0.0)) / np.maximum(cos_view, MIN_COS)
-    diagonal = float(np.hypot(*cam.pixel_metres))
-    seen &= np.abs(addr[:, 2] - depth) <= diagonal * (1.0 + slope)
+    tolerance = float(np.hypot(*cam.pixel_metres)) * (1.0 + slope)
+    plane = ~swept & (np.abs(face_s) > 1e-6 * np.linalg.norm(t.face, axis=1))
+    face_x, face_y = t.face @ cam.right, t.face @ cam.up
+    pitch_x, pitch_y = cam.pixel_metres
+    bx, by = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
+    visible = np.zeros(len(depth), dtype=bool)
+    for dx, dy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+        qx, qy = bx + dx, by + dy
+        ok = (qx >= 0) & (qy >= 0) & (qx < cols) & (qy < rows)
+        addr = address[np.clip(qy, 0, rows - 1), np.clip(qx, 0, cols - 1)]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            along = depth - (face_x * (qx - px) * pitch_x + face_y * (qy - py) * pitch_y) / face_s
+        own = np.where(plane, np.minimum(depth, along), depth)
+        visible |= ok & ((addr[:, 0] <= NO_SURFACE) | (addr[:, 2] >= own - tolerance))
+    seen = front & visible
+    # Behind the tool: in front of its nearest face at first touch (gather.frag).
+    nearest = tool[np.clip(iy, 0, rows - 1), np.clip(ix, 0, cols - 1), 3]
+    inside = (ix >= 0) & (iy >= 0) & (ix < cols) & (iy < rows)
+    seen &= ~(inside & (nearest < 0.5 * NO_FRONT) & (depth < nearest - advance - tolerance))
 
     stretch = 1.0 / np.maximum(cos_view, MIN_COS)
     tool_depth, found = _tool_depth_at(tool, px, py)
@@ -172,7 +203,7 @@ def gather(
         moving = seen & (inward > 0) & (cos_view < 1.0 - 1e-6)
         if moving.any():
             inward[moving] = _normal_exit(
-                lambda r: _tool_depth_at(tool, *pixel(r)),
+                lambda r: _tool_depth_at(tool, *pixel(r), with_camera=True),
                 rel[moving],
                 t.normal[moving],
                 depth[moving],
@@ -185,7 +216,7 @@ def gather(
 
 
 def _normal_exit(
-    tool_at: Callable[[Array], tuple[Array, NDArray[np.bool_]]],
+    tool_at: Callable[[Array], tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]],
     rel: Array,
     n: Array,
     depth: Array,
@@ -193,35 +224,46 @@ def _normal_exit(
     a0: Array,
 ) -> Array:
     """gather.frag's normal_exit for many texels at once: false position with the Illinois step
-    between a point inside the swept solid (lo) and one out of it (hi), metres inwards."""
+    between a point inside the swept solid (lo) and one out of it (hi), metres inwards; a texel
+    whose moved point leaves the camera keeps its last estimate."""
 
-    def beyond(a: Array, which: NDArray[np.bool_]) -> tuple[Array, NDArray[np.bool_]]:
-        back, on = tool_at(rel[which] - n[which] * a[:, None])
-        return depth[which] + a / stretch[which] - back, on
+    def beyond(
+        a: Array, which: NDArray[np.int64]
+    ) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
+        back, on, seen = tool_at(rel[which] - n[which] * a[:, None])
+        return depth[which] + a / stretch[which] - back, on, seen
 
-    every = np.ones(len(a0), dtype=bool)
+    every = np.arange(len(a0))
     lo, f_lo, hi = np.zeros_like(a0), -a0 / stretch, a0.copy()
-    f_hi, on_hi = beyond(hi, every)
+    f_hi, on_hi, seen = beyond(hi, every)
+    a = a0.copy()
+    active = seen.copy()
     for _ in range(4):  # still inside: look further in
-        grow = on_hi & (f_hi < 0.0)
-        if not grow.any():
+        i = np.flatnonzero(active & on_hi & (f_hi < 0.0))
+        if len(i) == 0:
             break
-        lo[grow], f_lo[grow] = hi[grow], f_hi[grow]
-        hi[grow] *= 2.0
-        f_hi[grow], on_hi[grow] = beyond(hi[grow], grow)
-    a = hi.copy()
-    active = ~(on_hi & (f_hi < 0.0))
+        f_more, on_more, seen = beyond(2.0 * hi[i], i)
+        a[i] = hi[i]
+        active[i[~seen]] = False
+        i, f_more, on_more = i[seen], f_more[seen], on_more[seen]
+        lo[i], f_lo[i] = hi[i], f_hi[i]
+        hi[i] *= 2.0
+        f_hi[i], on_hi[i] = f_more, on_more
+    a[active] = hi[active]
+    active &= ~(on_hi & (f_hi < 0.0))
     for _ in range(EXIT_STEPS):
-        if not active.any():
-            break
         i = np.flatnonzero(active)
+        if len(i) == 0:
+            break
         step = np.where(
             on_hi[i],
             (lo[i] * f_hi[i] - hi[i] * f_lo[i]) / np.where(on_hi[i], f_hi[i] - f_lo[i], 1.0),
             0.5 * (lo[i] + hi[i]),
         )
+        f, on, seen = beyond(step, i)
+        active[i[~seen]] = False
+        i, step, f, on = i[seen], step[seen], f[seen], on[seen]
         a[i] = step
-        f, on = beyond(step, active)
         done = on & (np.abs(f) <= EXIT_SETTLED_METRES)
         inside = on & (f < 0.0) & ~done
         out = ~on | ((f >= 0.0) & ~done)
@@ -233,9 +275,10 @@ def _normal_exit(
     return a
 
 
-def _tool_depth_at(tool: np.ndarray, px: Array, py: Array) -> tuple[Array, NDArray[np.bool_]]:
+def _tool_depth_at(tool: np.ndarray, px: Array, py: Array, with_camera: bool = False) -> Any:
     """Pass 4's tool depth at continuous pixel positions: bilinear where the four pixels around
-    a position all see the tool, else the nearest pixel's; and whether there is one."""
+    a position all see the tool, else the nearest pixel's; and whether there is one (and, with
+    `with_camera`, whether the position's pixel lies in the camera at all)."""
     rows, cols = tool.shape[:2]
 
     def sample(x: NDArray[np.int64], y: NDArray[np.int64]) -> tuple[Array, NDArray[np.bool_]]:
@@ -253,7 +296,10 @@ def _tool_depth_at(tool: np.ndarray, px: Array, py: Array) -> tuple[Array, NDArr
     ix, iy = np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
     nearest, has_nearest = sample(ix, iy)
     all4 = o00 & o10 & o01 & o11
-    return np.where(all4, bilinear, nearest), all4 | has_nearest
+    depth, found = np.where(all4, bilinear, nearest), all4 | has_nearest
+    if not with_camera:
+        return depth, found
+    return depth, found, (ix >= 0) & (iy >= 0) & (ix < cols) & (iy < rows)
 
 
 # -- texel enumeration (what passes 4 and 5 rasterise) --------------------------------------------
@@ -296,6 +342,7 @@ def footprint_texels(
     cols = np.concatenate([cols[chart], g_cols[reach]])
     gutter = np.concatenate([np.zeros(chart.sum(), bool), np.ones(reach.sum(), bool)])
     point = np.einsum("kj,kjc->kc", bary, world[owner])
+    face = np.cross(world[:, 1] - world[:, 0], world[:, 2] - world[:, 0])[owner]
     n = np.einsum("kj,kjc->kc", bary, vnormal[owner])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     # Clip distances of texel.vert / texel.geom: inside the rectangle and the slab.
@@ -320,6 +367,7 @@ def footprint_texels(
         n[sel],
         per_u[owner][sel],
         per_v[owner][sel],
+        face[sel],
         src_rows[sel],
         src_cols[sel],
         gutter[sel],

@@ -96,9 +96,10 @@ class Projected:
         """(k, 3, 3) camera (x, y, s) of the corners of triangles `which`."""
         return self._to_camera(self._mesh.corner_array()[which])
 
-    def faces_away(self, which: Indices) -> bool:
+    def faces_away(self, which: Indices, away: bool = True) -> bool:
         """Whether any of triangles `which` faces away from the camera (its outward normal has
-        a positive s: pass 3's back faces). The camera's axes (x, y, s) are left-handed
+        a positive s: pass 3's back faces), or with `away` False towards it (pass 2's front
+        faces; edge-on faces neither). The camera's axes (x, y, s) are left-handed
         (x cross y = -s), so the corners' cross product in these coordinates is minus the
         normal."""
         if len(which) == 0:
@@ -106,7 +107,7 @@ class Projected:
         a, b, c = np.moveaxis(self.corners(which), 1, 0)
         e1, e2 = b - a, c - a
         negated_s = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        return bool((negated_s < 0.0).any())
+        return bool((negated_s < 0.0).any() if away else (negated_s > 0.0).any())
 
     def spheres(self, which: Indices) -> tuple[Array, Array]:
         """Camera-space bounding spheres (centres (k, 3), radii (k,)) of triangles `which`."""
@@ -328,23 +329,24 @@ def overlap(
     tool: Projected,
     target_max_height: float = 0.0,
     tool_max_height: float = 0.0,
+    advance: float = 0.0,
 ) -> Overlap | None:
     """The bound of the overlap of `target` and the advanced `tool`. `*_max_height` is the highest
-    height each map holds (metres; > 0: bumps that stand proud of the mesh). None: they cannot
-    meet."""
+    height each map holds (metres; > 0: bumps that stand proud of the mesh); `advance` how far
+    the tool was moved from first touch (metres along s). None: they cannot meet."""
     near_tool, near_target = tool.rect(), target.rect()
     s_lo = target.s_extreme(near_tool, lowest=True)  # the target's nearest point: first touch
     s_hi = tool.s_extreme(near_target, lowest=False)  # how far the advanced tool reaches
     if s_lo is None or s_hi is None:
         return None
     bumps = max(target_max_height, 0.0) + max(tool_max_height, 0.0)
-    # No target point nearer than a solid tool's nearest point (advanced) can lie inside it: a
-    # concave target's surfaces behind the tool (a shelf over it, the far wall of a ring around
-    # it) stay out of the slab, whatever the target's nearest point is. An open tool (a plate)
-    # has no nearest point of its solid.
+    # No target point nearer than a solid tool's nearest point at first touch can lie inside the
+    # solid it sweeps: a concave target's surfaces behind the tool (a shelf over it, the far wall
+    # of a ring around it) stay out of the slab, whatever the target's nearest point is. An open
+    # tool (a plate) has no nearest point of its solid.
     tool_lo = tool.s_extreme(near_target, lowest=True) if tool.solid else None
     if tool_lo is not None:
-        s_lo = max(s_lo, tool_lo - bumps)
+        s_lo = max(s_lo, tool_lo - advance - bumps)
     if s_hi + bumps < s_lo:
         return None
     # A target point can move if its bumped point lies inside the bumped tool; a tool point can
