@@ -35,6 +35,26 @@ def gl(gl_session):
     assert err == "GL_NO_ERROR", f"the test left a GL error: {err}"
 
 
+@pytest.fixture
+def carver(gl):
+    """A carver on the session context, released after the test."""
+    from dentdemo.carve.carver import Carver
+
+    c = Carver(gl)
+    yield c
+    c.release()
+
+
+@pytest.fixture
+def bodies(gl):
+    """surface_helpers.Bodies on the session context: every body released after the test."""
+    from surface_helpers import Bodies
+
+    b = Bodies(gl)
+    yield b
+    b.release()
+
+
 @pytest.fixture(autouse=True)
 def release_presses():
     """The press fixture's cleanup: every press a test made through carve_helpers.setup is

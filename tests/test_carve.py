@@ -12,14 +12,6 @@ import pytest
 from carve_helpers import cap, heights, plate_xz, release, setup
 from dentdemo.app.press import cap_error, footprint_radius
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import Carver
-
-
-@pytest.fixture
-def carver(gl):
-    c = Carver(gl)
-    yield c
-    c.release()
 
 
 @pytest.mark.parametrize(

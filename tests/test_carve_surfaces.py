@@ -19,7 +19,6 @@ from dentdemo.mesh.primitives import sphere as sphere_mesh
 from dentdemo.model.shapes import Box, Capsule, Plate, Sphere
 from surface_helpers import (
     DENTED,
-    Bodies,
     ball_on,
     coarse_from_fine,
     heights,
@@ -34,20 +33,6 @@ from surface_helpers import (
 
 DEPTH = 0.004  # metres
 BALL = 0.03  # tool radius, metres
-
-
-@pytest.fixture
-def carver(gl):
-    c = Carver(gl)
-    yield c
-    c.release()
-
-
-@pytest.fixture
-def bodies(gl):
-    b = Bodies(gl)
-    yield b
-    b.release()
 
 
 _MESH_CACHE: dict[str, object] = {}

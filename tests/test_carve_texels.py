@@ -11,27 +11,12 @@ import numpy as np
 import pytest
 
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import Carver
 from dentdemo.mesh.loader import reatlas
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.normals import smooth_normals
 from dentdemo.mesh.primitives import sphere as sphere_mesh
 from dentdemo.model.shapes import Box, Plate, Sphere
-from surface_helpers import DENTED, Bodies, heights, holes, press_mesh, rotation, translation
-
-
-@pytest.fixture
-def carver(gl):
-    c = Carver(gl)
-    yield c
-    c.release()
-
-
-@pytest.fixture
-def bodies(gl):
-    b = Bodies(gl)
-    yield b
-    b.release()
+from surface_helpers import DENTED, heights, holes, press_mesh, rotation, translation
 
 
 # -- numpy rasters of a mesh's uv triangles --------------------------------------------------------
