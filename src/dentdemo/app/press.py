@@ -166,7 +166,8 @@ def run_presses(
             times.append((time.perf_counter() - start) * 1e3)
             if depth > 0 and not any(job.target is setup.target for job in jobs):
                 raise DentdemoError(
-                    "--offset/--normal: the tool never meets the target moving along "
+                    "--offset/--normal: the tool cannot reach the target: it never meets it "
+                    "moving along "
                     f"{np.round(setup.contact.direction, 4).tolist()} at "
                     f"{np.round(setup.contact.point, 4).tolist()} m; nothing was pressed"
                 )
