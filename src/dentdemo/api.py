@@ -28,7 +28,7 @@ from dentdemo.carve.surface import (
     rebuild_all_normals,
 )
 from dentdemo.errors import ArgumentError, DentdemoError
-from dentdemo.gl.context import GLContext
+from dentdemo.gl.context import GLContext, per_context
 from dentdemo.gl.state import preserved
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.model.materials import Appearance
@@ -144,12 +144,12 @@ class Contact:
 
 
 def _wrap(ctx: moderngl.Context) -> GLContext:
-    """dentdemo's wrapper of a host context, made once per context (it caches programs)."""
-    if not isinstance(ctx.extra, dict):
-        ctx.extra = {}
-    if "dentdemo" not in ctx.extra:
-        ctx.extra["dentdemo"] = GLContext(ctx=ctx, backend="host")
-    return ctx.extra["dentdemo"]
+    """dentdemo's wrapper of a host context, made once per context (it caches programs); kept
+    beside the context, never in the host's `ctx.extra`."""
+    store = per_context(ctx)
+    if "host" not in store:
+        store["host"] = GLContext(ctx=ctx, backend="host")
+    return store["host"]
 
 
 class DentableSurface:

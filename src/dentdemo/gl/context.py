@@ -135,11 +135,27 @@ def parking_framebuffer(ctx: moderngl.Context) -> moderngl.Framebuffer:
     """A framebuffer that lives as long as the context (the screen's, where there is one)."""
     if ctx.screen is not None:
         return ctx.screen
-    if not isinstance(ctx.extra, dict):
-        ctx.extra = {}
-    if "parking_fbo" not in ctx.extra:
-        ctx.extra["parking_fbo"] = ctx.framebuffer([ctx.renderbuffer((1, 1))])
-    return ctx.extra["parking_fbo"]
+    store = per_context(ctx)
+    if "parking_fbo" not in store:
+        store["parking_fbo"] = ctx.framebuffer([ctx.renderbuffer((1, 1))])
+    return store["parking_fbo"]
+
+
+#: The attribute of a moderngl.Context that holds `per_context`'s dict.
+_STORE = "_dentdemo"
+
+
+def per_context(ctx: moderngl.Context) -> dict[str, Any]:
+    """dentdemo's objects for one moderngl context (its wrapper of a host's context, the parking
+    framebuffer). They are kept on the context object under a private attribute, never in
+    `ctx.extra` (the host's own), so they live exactly as long as the context: a module-level
+    table, even a weakref.WeakKeyDictionary, would keep every context alive, since the objects
+    it holds (programs, framebuffers, the wrapper) all refer back to their context."""
+    store = vars(ctx).get(_STORE)
+    if store is None:
+        store = {}
+        setattr(ctx, _STORE, store)
+    return store
 
 
 def headless_backend(requested: str | None = None) -> str:

@@ -7,6 +7,17 @@ import ctypes
 import ctypes.util
 from functools import cache
 
+#: The glIs* calls dentdemo makes (they return a GLboolean, one byte).
+_BOOLEAN_QUERIES = (
+    "Enabled",
+    "Framebuffer",
+    "Program",
+    "VertexArray",
+    "Buffer",
+    "Texture",
+    "Sampler",
+)
+
 
 @cache
 def gl_library() -> ctypes.CDLL:
@@ -17,7 +28,7 @@ def gl_library() -> ctypes.CDLL:
                 gl = ctypes.CDLL(name)
             except OSError:
                 continue
-            for query in ("Enabled", "Framebuffer", "Program", "VertexArray", "Buffer", "Texture"):
+            for query in _BOOLEAN_QUERIES:
                 getattr(gl, f"glIs{query}").restype = ctypes.c_ubyte  # GLboolean
             return gl
     raise OSError("no OpenGL library (libOpenGL.so.0 or libGL.so.1) to call")

@@ -7,10 +7,10 @@ program's, or another pass's): depth test, function and mask; culling and front 
 clip distances; polygon mode (filled unless declared); the sampler object on each texture unit it
 reads (its own, or none, so that the texture's own filter and wrap apply); and it switches off the
 tests and modes no pass declares (scissor, stencil, polygon offset, depth clamp, primitive
-restart, logic op, sample coverage and mask, sRGB writes). Afterwards it puts back moderngl's
-defaults for what it declared, so moderngl's record of the context (front and cull face,
-wireframe, the bound framebuffer's depth mask) matches the driver. Restoring a host's own state
-is `gl.state.preserved`'s job, at the public entry points."""
+restart, logic op, sample coverage and mask, sRGB writes). Afterwards it leaves `neutral` state
+(moderngl's defaults for what it declared, so moderngl's record of the context matches the
+driver), with the bound framebuffer's depth mask. Restoring a host's own state is
+`gl.state.preserved`'s job, at the public entry points; it starts them from `neutral` too."""
 
 from __future__ import annotations
 
@@ -26,6 +26,8 @@ from dentdemo.gl.shaders import set_uniform
 GL_CLIP_DISTANCE0 = 0x3000
 #: Clip distances a pass may enable (GL 3.3 guarantees at least 8).
 MAX_CLIP_DISTANCES = 8
+#: Texture units a pass may read: 0 .. TEXTURE_UNITS - 1 (the carve reads at most three).
+TEXTURE_UNITS = 8
 #: Capabilities no pass declares, kept off during every pass (glDisable): scissor and stencil
 #: tests, polygon offset (fill, line, point), depth clamp, primitive restart, logic op,
 #: alpha-to-coverage, sample coverage, sample mask, sRGB framebuffer writes.
@@ -97,10 +99,8 @@ class PassState:
 @contextmanager
 def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
     """Run under `state` (after the pass's framebuffer is bound: binding one applies its own
-    colour and depth masks and switches the scissor test off), then put back moderngl's defaults
-    for what `state` sets: depth test, culling and blending off, depth function "<", cull face
-    "back", front face "ccw", default blend, clip distances off, filled polygons, and the bound
-    framebuffer's depth mask."""
+    colour and depth masks and switches the scissor test off), then leave `neutral` state and
+    the bound framebuffer's depth mask."""
     gl = gl_library()
     for capability in _OFF:
         gl.glDisable(capability)
@@ -123,17 +123,29 @@ def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
     try:
         yield
     finally:
-        for i in range(state.clip_distances):
-            gl.glDisable(GL_CLIP_DISTANCE0 + i)
-        ctx.enable_only(0)  # none
-        ctx.depth_func = "<"
-        ctx.cull_face = "back"
-        ctx.front_face = "ccw"
-        if state.blend is not None:
-            _set_blend(_DEFAULT_BLEND)
+        neutral(ctx)
         fbo = ctx.fbo
         gl.glDepthMask(int(fbo.depth_mask) if fbo is not None else 1)
-        ctx.wireframe = False
+
+
+def neutral(ctx: moderngl.Context) -> None:
+    """The state each pass leaves, whatever came before: moderngl's defaults for what a pass may
+    declare (depth test, culling and blending off, depth function "<", cull face "back", front
+    face "ccw", default blend, filled polygons), clip distances and the capabilities no pass
+    declares off (with rasterizer discard and program point size), and no sampler object on
+    units 0 .. TEXTURE_UNITS - 1. `gl.state.preserved` starts each public call from it, so
+    draws and clears outside `Pass.run` (the chart mask, the environment bake) see none of the
+    host's state either."""
+    gl = gl_library()
+    for capability in (*_OFF, *(GL_CLIP_DISTANCE0 + i for i in range(MAX_CLIP_DISTANCES))):
+        gl.glDisable(capability)
+    ctx.enable_only(0)  # none
+    ctx.depth_func = "<"
+    ctx.cull_face = "back"
+    ctx.front_face = "ccw"
+    _set_blend(_DEFAULT_BLEND)
+    ctx.wireframe = False
+    ctx.clear_samplers(0, TEXTURE_UNITS)
 
 
 def _set_blend(blend: Blend) -> None:

@@ -1,7 +1,10 @@
 """The host's GL state, read from GL itself and put back: dentdemo's public entry points (carving,
 map creation) run inside `preserved(ctx)`, so a host program's framebuffer, viewport, tests, blend,
-culling, bindings and masks are as it left them. Reads go through the driver (glGet*, glIsEnabled)
-rather than moderngl's bookkeeping, so state the host set by any means is kept."""
+culling, polygon mode, bindings (textures and sampler objects), masks and clear values are as it
+left them, and moderngl's cached view of them agrees with the driver. Reads go through the driver
+(glGet*, glIsEnabled) rather than moderngl's bookkeeping, so state the host set by any means is
+kept. The body starts from `passes.neutral`, so none of the host's state reaches dentdemo's draws
+and clears."""
 
 from __future__ import annotations
 
@@ -9,11 +12,13 @@ import ctypes
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 import moderngl
 
 from dentdemo.gl.context import parking_framebuffer
 from dentdemo.gl.library import gl_library as _gl
+from dentdemo.gl.passes import TEXTURE_UNITS, neutral
 
 # Capabilities a pass or a host may switch (glEnable / glDisable).
 CAPABILITIES = {
@@ -27,6 +32,14 @@ CAPABILITIES = {
     "rasterizer_discard": 0x8C89,
     "framebuffer_srgb": 0x8DB9,
     "multisample": 0x809D,
+    "polygon_offset_line": 0x2A02,
+    "polygon_offset_point": 0x2A01,
+    "depth_clamp": 0x864F,
+    "primitive_restart": 0x8F9D,
+    "color_logic_op": 0x0BF2,
+    "sample_alpha_to_coverage": 0x809E,
+    "sample_coverage": 0x80A0,
+    "sample_mask": 0x8E51,
     **{f"clip_distance{i}": 0x3000 + i for i in range(8)},
 }
 # Integer state (glGetIntegerv), with how many values each holds.
@@ -53,13 +66,42 @@ INTEGERS = {
     "polygon_mode": (0x0B40, 2),
 }
 BOOLEANS = {"depth_mask": (0x0B72, 1), "color_mask": (0x0C23, 4)}
-FLOATS = {"point_size": (0x0B11, 1), "polygon_offset": (0x8038, 1), "polygon_units": (0x2A00, 1)}
-#: Texture units whose 2D texture bindings are kept (the carve binds at most three).
-TEXTURE_UNITS = 8
+FLOATS = {
+    "point_size": (0x0B11, 1),
+    "polygon_offset": (0x8038, 1),
+    "polygon_units": (0x2A00, 1),
+    "clear_color": (0x0C22, 4),  # RGBA
+}
+#: Read as doubles: glClearDepth takes one (0 near .. 1 far).
+DOUBLES = {"clear_depth": (0x0B73, 1)}
+#: Bindings kept on each of the texture units 0 .. TEXTURE_UNITS - 1 (glGetIntegerv while the unit
+#: is active): the 2D texture and the sampler object.
+UNIT_BINDINGS = {"texture_2d": 0x8069, "sampler": 0x8919}
 _TEXTURE0 = 0x84C0
-_TEXTURE_BINDING_2D = 0x8069
 _TEXTURE_2D = 0x0DE1
 _FRONT_AND_BACK = 0x0408
+_LINE = 0x1B01
+#: moderngl's names for GL's values (the strings its setters take).
+_COMPARE_NAMES = {
+    0x0200: "0",
+    0x0201: "<",
+    0x0202: "==",
+    0x0203: "<=",
+    0x0204: ">",
+    0x0205: "!=",
+    0x0206: ">=",
+    0x0207: "1",
+}
+_FACE_NAMES = {0x0404: "front", 0x0405: "back", 0x0408: "front_and_back"}
+_WINDING_NAMES = {0x0900: "cw", 0x0901: "ccw"}
+#: moderngl's enable flags by the capability each stands for.
+_FLAGS = {
+    "blend": moderngl.BLEND,
+    "depth_test": moderngl.DEPTH_TEST,
+    "cull_face": moderngl.CULL_FACE,
+    "rasterizer_discard": moderngl.RASTERIZER_DISCARD,
+    "program_point_size": moderngl.PROGRAM_POINT_SIZE,
+}
 
 
 @dataclass(frozen=True)
@@ -70,42 +112,39 @@ class GLState:
     integers: dict[str, tuple[int, ...]]
     booleans: dict[str, tuple[bool, ...]]
     floats: dict[str, tuple[float, ...]]
-    textures: tuple[int, ...]
+    doubles: dict[str, tuple[float, ...]]
+    #: Per binding of UNIT_BINDINGS, the object name on each unit.
+    units: dict[str, tuple[int, ...]]
+
+
+def _get(getter: str, ctype: type[ctypes._SimpleCData[Any]], pname: int, count: int) -> tuple:
+    """`count` values of `pname` through glGet{getter}v."""
+    out = (ctype * 4)()
+    getattr(_gl(), f"glGet{getter}v")(pname, out)
+    return tuple(out[:count])
 
 
 def capture() -> GLState:
     """The current context's state (it must be current)."""
     gl = _gl()
     enabled = {name: bool(gl.glIsEnabled(cap)) for name, cap in CAPABILITIES.items()}
-
-    def ints(pname: int, count: int) -> tuple[int, ...]:
-        out = (ctypes.c_int * 4)()
-        gl.glGetIntegerv(pname, out)
-        return tuple(out[:count])
-
-    def bools(pname: int, count: int) -> tuple[bool, ...]:
-        out = (ctypes.c_ubyte * 4)()
-        gl.glGetBooleanv(pname, out)
-        return tuple(bool(v) for v in out[:count])
-
-    def floats(pname: int, count: int) -> tuple[float, ...]:
-        out = (ctypes.c_float * 4)()
-        gl.glGetFloatv(pname, out)
-        return tuple(out[:count])
-
-    integers = {name: ints(*spec) for name, spec in INTEGERS.items()}
-    active = integers["active_texture"][0]
-    textures = []
+    integers = {name: _get("Integer", ctypes.c_int, *spec) for name, spec in INTEGERS.items()}
+    per_unit: dict[str, list[int]] = {name: [] for name in UNIT_BINDINGS}
     for unit in range(TEXTURE_UNITS):
         gl.glActiveTexture(_TEXTURE0 + unit)
-        textures.append(ints(_TEXTURE_BINDING_2D, 1)[0])
-    gl.glActiveTexture(active)
+        for name, pname in UNIT_BINDINGS.items():
+            per_unit[name].append(_get("Integer", ctypes.c_int, pname, 1)[0])
+    gl.glActiveTexture(integers["active_texture"][0])
     return GLState(
         enabled,
         integers,
-        {name: bools(*spec) for name, spec in BOOLEANS.items()},
-        {name: floats(*spec) for name, spec in FLOATS.items()},
-        tuple(textures),
+        {
+            name: tuple(map(bool, _get("Boolean", ctypes.c_ubyte, *b)))
+            for name, b in BOOLEANS.items()
+        },
+        {name: _get("Float", ctypes.c_float, *spec) for name, spec in FLOATS.items()},
+        {name: _get("Double", ctypes.c_double, *spec) for name, spec in DOUBLES.items()},
+        {name: tuple(names) for name, names in per_unit.items()},
     )
 
 
@@ -141,9 +180,11 @@ def restore(state: GLState) -> None:
     gl.glPixelStorei(0x0CF5, i["unpack_alignment"][0])
     gl.glPixelStorei(0x0D05, i["pack_alignment"][0])
     gl.glPolygonMode(_FRONT_AND_BACK, i["polygon_mode"][0])
-    for unit, texture in enumerate(state.textures):
+    bindings = zip(state.units["texture_2d"], state.units["sampler"], strict=True)
+    for unit, (texture, sampler) in enumerate(bindings):
         gl.glActiveTexture(_TEXTURE0 + unit)
         gl.glBindTexture(_TEXTURE_2D, alive("glIsTexture", texture))
+        gl.glBindSampler(unit, alive("glIsSampler", sampler))
     gl.glActiveTexture(i["active_texture"][0])
     gl.glDepthMask(ctypes.c_ubyte(state.booleans["depth_mask"][0]))
     gl.glColorMask(*(ctypes.c_ubyte(v) for v in state.booleans["color_mask"]))
@@ -152,18 +193,41 @@ def restore(state: GLState) -> None:
         ctypes.c_float(state.floats["polygon_offset"][0]),
         ctypes.c_float(state.floats["polygon_units"][0]),
     )
+    gl.glClearColor(*(ctypes.c_float(c) for c in state.floats["clear_color"]))
+    gl.glClearDepth(ctypes.c_double(state.doubles["clear_depth"][0]))
+
+
+def _record(ctx: moderngl.Context, state: GLState) -> None:
+    """Make moderngl's cached view of the context (what its setters keep in the Context: enable
+    flags, depth function, cull and front face, wireframe, polygon offset, and the bound
+    framebuffer's viewport and scissor) say what `state` holds, by setting each through moderngl.
+    Each setter also makes its GL call; `restore` afterwards sets GL exactly (a scissor of None
+    resets the box, a polygon offset switches the offset capabilities)."""
+    on, i, f = state.enabled, state.integers, state.floats
+    ctx.enable_only(sum(flag for name, flag in _FLAGS.items() if on[name]))
+    ctx.depth_func = _COMPARE_NAMES[i["depth_func"][0]]
+    ctx.cull_face = _FACE_NAMES[i["cull_face_mode"][0]]
+    ctx.front_face = _WINDING_NAMES[i["front_face"][0]]
+    ctx.wireframe = i["polygon_mode"][0] == _LINE  # GL_POINT has no name in moderngl
+    ctx.polygon_offset = (f["polygon_offset"][0], f["polygon_units"][0])
+    x, y, width, height = i["viewport"]
+    ctx.viewport = (x, y, width, height)
+    x, y, width, height = i["scissor_box"]
+    ctx.scissor = (x, y, width, height) if on["scissor_test"] else None
 
 
 @contextmanager
 def preserved(ctx: moderngl.Context) -> Iterator[None]:
-    """Run the body, then give the host back its GL state and moderngl's idea of it (the bound
-    framebuffer object and viewport moderngl reports)."""
+    """Run the body from `passes.neutral`, then give the host back its GL state and moderngl's
+    cached view of it (the bound framebuffer object and the rest `_record` names)."""
     fbo = ctx.fbo
     state = capture()
+    neutral(ctx)
     try:
         yield
     finally:
         # moderngl's record of the binding (it re-binds it whenever it makes a framebuffer):
         # the host's, or, where the host never bound one, a framebuffer that is never released.
         (fbo if fbo is not None else parking_framebuffer(ctx)).use()
-        restore(state)  # GL's own binding and the rest
+        _record(ctx, state)
+        restore(state)  # GL's own binding and the rest, exactly
