@@ -325,10 +325,16 @@ class Carver:
         depth: float,
         tool_depth: float = 0.0,
     ) -> bool:
-        """Dent `target` `depth` metres deep where `tool` (posed at first touch) moves into it
-        along `contact`, and `tool` by `tool_depth`; normals are rebuilt around the dents. A
-        press deepens a dent only (the same press twice changes nothing). Nothing is read back.
-        False when the bodies cannot meet or the depths are not positive."""
+        """Dent `target` where `tool` (posed at first touch) moves `depth` metres into it along
+        `contact.direction`, and `tool` where it moves `tool_depth` the other way; normals are
+        rebuilt around the dents. Every surface point inside the solid the tool sweeps moves
+        inwards along its own normal until it leaves it: square-on into a flat surface the
+        dent is `depth` deep, at an angle t from the normal `depth * cos(t)` (the direction may
+        be a velocity). Only what the tool meets is dented: parts of the same mesh behind the
+        tool neither take a dent nor hide the surface it presses. A press deepens a dent only
+        (the same press twice changes nothing). Nothing is read back. False, with no GPU work,
+        when the bodies cannot meet (a tool moving off or along the surface) or the depths are
+        not positive."""
         carver, depth, tool_depth = self._arguments(target, tool, contact, depth, tool_depth)
         frame = ContactFrame(contact.point, contact.direction)
         jobs = carver.carve(target._body("target"), tool._body("tool"), frame, depth, tool_depth)
