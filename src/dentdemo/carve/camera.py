@@ -190,11 +190,16 @@ def collision_camera(
         bound.slab[1] + SLAB_MARGIN_TEXELS * texel,
     )
     ring = RING_TEXELS * texel
+    proud = max(target.max_height, 0.0) + max(tool.max_height, 0.0)
     # Pass 2 sees the target from the slab's near side on (a nearer surface lies behind the tool:
-    # it neither hides the slab nor takes a dent), up to its far side; pass 3 draws all of the
-    # tool in the view, front faces too (pass 2 drops what lies in front of them).
+    # it neither hides the slab nor takes a dent), up to its far side. Pass 3 draws the tool's
+    # faces that reach past the slab's near side (two pixels more for the bilinear neighbours at
+    # the rim): a front face nearer than that is nearer than every target surface pass 2 keeps,
+    # so leaving it out drops nothing that pass 2 or 4 would test against it.
     (texels,) = target_tris.meeting_slabs(view, [(gather[0] - ring, gather[1] + ring)], exact_lists)
-    (tool_view,) = tool_tris.meeting_slabs(view, [None], exact_lists)
+    (tool_view,) = tool_tris.meeting_slabs(
+        view, [(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf)], exact_lists
+    )
     # An open body (a plate) has material on one side only: an open tool pushes only with faces
     # turned away from the view, an open target takes dents only in faces turned towards it.
     if not tool_tris.solid and not tool_tris.faces_away(tool_view):
