@@ -29,7 +29,7 @@ out float f_height;
 bool tool_sample(ivec2 pixel, out float depth) {
     depth = NO_TOOL;
     if (!inside_camera(pixel)) return false;
-    vec2 tool = texelFetch(u_tool_depth, pixel, 0).rg;
+    vec2 tool = texelFetch(u_tool_depth, pixel + u_tile, 0).rg;
     depth = tool.r;
     return tool.g > 0.5;
 }
@@ -40,7 +40,8 @@ bool tool_sample(ivec2 pixel, out float depth) {
 bool tool_depth_at(vec2 p, out float depth) {
     ivec2 base = ivec2(floor(p));
     if (all(greaterThanEqual(base, ivec2(0))) && all(lessThan(base + 1, u_resolution))) {
-        vec2 tool = texture(u_tool_depth, (p + 0.5) / vec2(textureSize(u_tool_depth, 0))).rg;
+        vec2 at = (p + 0.5 + vec2(u_tile)) / vec2(textureSize(u_tool_depth, 0));
+        vec2 tool = texture(u_tool_depth, at).rg;
         if (tool.g >= FULL_COVERAGE) {
             depth = tool.r / tool.g;
             return true;
@@ -145,7 +146,7 @@ void main() {
     for (int k = 0; k < 4; ++k) {
         ivec2 q = base + ivec2(k & 1, k >> 1);
         if (!inside_camera(q)) continue;
-        vec4 address = texelFetch(u_address, q, 0);
+        vec4 address = texelFetch(u_address, q + u_tile, 0);
         float own = depth;
         if (plane) {
             vec2 step = (vec2(q) - p) * pixel_metres;
@@ -156,7 +157,8 @@ void main() {
     if (!seen) discard;
     // Behind the tool: in front of its nearest face at first touch (pass 3's front, less the
     // advance), as a ledge overhanging it is; pass 2 drew no such surface.
-    vec4 extent = inside_camera(ivec2(floor(p + 0.5))) ? texelFetch(u_tool_depth, ivec2(floor(p + 0.5)), 0) : vec4(NO_FRONT);
+    ivec2 near = ivec2(floor(p + 0.5));
+    vec4 extent = inside_camera(near) ? texelFetch(u_tool_depth, near + u_tile, 0) : vec4(NO_FRONT);
     if (extent.a < 0.5 * NO_FRONT && depth < extent.a - u_advance - tolerance) discard;
     float tool;
     if (!tool_depth_at(p, tool)) discard;

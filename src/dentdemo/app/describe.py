@@ -32,7 +32,7 @@ def describe(sim: Simulation, camera: OrbitCamera, options: RenderOptions) -> Fr
     inset = None
     if options.address_map and sim.carver.last_jobs:
         resolution = sim.carver.last_jobs[0].camera.resolution
-        inset = Inset(sim.carver.slot_textures(0), (resolution[0], resolution[1]))
+        inset = Inset(sim.carver.address_texture(), (resolution[0], resolution[1]))
     return FrameDescription(items, camera, sim.scene.light, options, ground_y, lines, inset)
 
 

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from dentdemo import outputs
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import CarveBody, Carver
+from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
 from dentdemo.gl.context import GLContext
 from dentdemo.mesh import primitives
@@ -223,11 +223,16 @@ class Simulation:
     def apply_queued(self, limit: int | None = None) -> int:
         """Carve up to `limit` queued impacts (all without a limit), oldest first; returns how many.
         No physics step: what the budget deferred lands on the current state."""
-        done = 0
-        while self.queue and (limit is None or done < limit):
-            self._carve(self.queue.popleft())
-            done += 1
-        return done
+        taken: list[CarveRequest] = []
+        while self.queue and (limit is None or len(taken) < limit):
+            taken.append(self.queue.popleft())
+        presses = [press for press in map(self._press, taken) if press is not None]
+        if presses:
+            # One batch: every hit reads the heights from before it (docs/carve.md, "Batches").
+            self.carver.carve_many([press for _, press in presses])
+            self.carved_points.extend(request.impact.point for request, _ in presses)
+            self.last_hit = presses[-1][0]
+        return len(taken)
 
     def advance(self, seconds: float, max_steps: int = 4) -> int:
         """Steps owed for `seconds` of wall time times the time scale (window use)."""
@@ -265,19 +270,17 @@ class Simulation:
         model_b[:3, 3] += impact.normal * impact.depth  # undo the penetration: first touch
         return CarveRequest(impact, depth_a, depth_b, model_a, model_b)
 
-    def _carve(self, request: CarveRequest) -> None:
+    def _press(self, request: CarveRequest) -> tuple[CarveRequest, Press] | None:
+        """A queued impact as a press for the carver (None: one of its bodies is gone)."""
         impact = request.impact
         a, b = self.bodies.get(impact.body_a), self.bodies.get(impact.body_b)
         if a is None or b is None:
-            return
+            return None
         target = CarveBody(a.gpu_mesh, a.maps, request.model_a)
         tool = CarveBody(b.gpu_mesh, b.maps, request.model_b)
         # B moves into A along -N; the carve finds the surface point of A nearest to the contact.
-        point = impact.point
-        contact = ContactFrame(point, -impact.normal)
-        self.carver.carve(target, tool, contact, request.depth_a, request.depth_b)
-        self.carved_points.append(point)
-        self.last_hit = request
+        contact = ContactFrame(impact.point, -impact.normal)
+        return request, (target, tool, contact, request.depth_a, request.depth_b)
 
     # -- lifecycle -----------------------------------------------------------------------------
     def reset(self) -> None:

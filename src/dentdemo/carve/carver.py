@@ -6,9 +6,9 @@ of the maps."""
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import moderngl
 import numpy as np
@@ -70,17 +70,40 @@ class CarveJob:
     #: and with the tool's (made once per hit).
     target_uniforms: dict[str, object]
     tool_uniforms: dict[str, object]
+    #: The camera's lower-left pixel in the scratch atlas (set when its batch is packed).
+    tile: tuple[int, int] = (0, 0)
+
+    @property
+    def viewport(self) -> tuple[int, int, int, int]:
+        return (*self.tile, *self.camera.resolution)
+
+    def placed(self, tile: tuple[int, int]) -> CarveJob:
+        """This job with its camera at `tile` of the atlas."""
+        at = {"u_tile": tile}
+        return replace(
+            self,
+            tile=tile,
+            target_uniforms={**self.target_uniforms, **at},
+            tool_uniforms={**self.tool_uniforms, **at},
+        )
+
+
+#: One hit for `Carver.carve_many`: target, tool (posed at first touch), contact, the target's
+#: and the tool's dent depths (metres).
+Press = tuple["CarveBody", "CarveBody", ContactFrame, float, float]
 
 
 class _Scratch:
-    """Per-direction collision-camera buffers, allocated once at the largest resolution; each hit
-    uses (and clears) only its own viewport, so it costs its footprint."""
+    """The collision cameras' buffers: one atlas, allocated once, in which each direction of a
+    batch has its own tile (shelf-packed); a batch uses (and clears) only the tiles' bounding
+    box, so it costs its footprints."""
 
-    def __init__(self, ctx: moderngl.Context, size: int) -> None:
-        self.address = ctx.texture((size, size), 4, dtype="f4")
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int]) -> None:
+        self.size = size
+        self.address = ctx.texture(size, 4, dtype="f4")
         # (back view depth m, coverage, -, front view depth m): pass 3.
-        self.tool_depth = ctx.texture((size, size), 4, dtype="f4")
-        self.depth = ctx.depth_texture((size, size))
+        self.tool_depth = ctx.texture(size, 4, dtype="f4")
+        self.depth = ctx.depth_texture(size)
         self.address.filter = (moderngl.NEAREST, moderngl.NEAREST)
         # Pass 4 interpolates the tool's depth between pixels with the sampler; pass 3 clears only
         # its own viewport, so the border of what is in use is never sampled across.
@@ -90,6 +113,24 @@ class _Scratch:
 
     def release(self) -> None:
         release(self.address_fbo, self.peel_fbo, self.address, self.tool_depth, self.depth)
+
+    def pack(self, jobs: list[CarveJob]) -> Iterator[list[CarveJob]]:
+        """`jobs` placed in tiles, as consecutive batches that each fit the atlas: shelves of
+        tiles left to right, bottom to top, one pixel apart."""
+        width, height = self.size
+        batch: list[CarveJob] = []
+        x = y = shelf = 0
+        for job in jobs:
+            w, h = job.camera.resolution
+            if x + w > width:
+                x, y, shelf = 0, y + shelf + 1, 0
+            if y + h > height:
+                yield batch
+                batch, x, y, shelf = [], 0, 0, 0
+            batch.append(job.placed((x, y)))
+            x, shelf = x + w + 1, max(shelf, h)
+        if batch:
+            yield batch
 
 
 #: Pass 3's blend: the farthest back face and the coverage (red, green: MAX), the nearest front
@@ -114,7 +155,9 @@ class Carver:
     def __init__(self, gl: GLContext, max_resolution: int = 1023) -> None:
         self.gl = gl
         self.max_resolution = max_resolution
-        self._slots = [_Scratch(gl.ctx, max_resolution) for _ in range(2)]
+        #: Two cameras of the largest resolution side by side (the memory of one hit's two
+        #: directions); many small ones.
+        self.scratch = _Scratch(gl.ctx, (2 * max_resolution + 2, max_resolution + 1))
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT).
         self._surface = {
             (name, swept): Pass(
@@ -158,26 +201,43 @@ class Carver:
         target. Both directions read the heights from before this hit (the paper updates a body's
         map only once both are done). Depths that are not positive finite numbers do nothing.
         """
-        jobs = self.plan(target, tool, contact, target_depth, tool_depth)
+        return self.carve_many([(target, tool, contact, target_depth, tool_depth)])
+
+    def carve_many(self, presses: Sequence[Press]) -> list[CarveJob]:
+        """Every hit of `presses` in one batch (docs/carve.md, "Batches"): all of them read the
+        heights from before the batch, each pass runs once for all hits, and where two hits dent
+        the same texels the deeper wins (MIN). A batch whose cameras do not fit the atlas
+        together is carved as consecutive batches. Returns the directions carved."""
+        jobs = [job for press in presses for job in self.plan(*press)]
         if jobs:
             with preserved(self.gl.ctx):  # the host's GL state, as it left it
-                self._run(jobs)
+                placed = []
+                for batch in self.scratch.pack(jobs):
+                    self._run(batch)
+                    placed += batch
+            jobs = placed
             self.last_jobs = jobs
         return jobs
 
     def _run(self, jobs: list[CarveJob]) -> None:
-        """Passes 3, 2, 4 and 5 of every direction (pass 2 reads pass 3's front faces)."""
+        """Passes 3, 2, 4 and 5 of every direction of a batch (pass 2 reads pass 3's front
+        faces): one clear of the atlas per camera pass, the gathers and normal rebuilds grouped
+        by the map they write."""
+        scratch = self.scratch
         with self._timed("peel"):
-            for slot, job in zip(self._slots, jobs, strict=False):
-                self._peel_pass(slot, job)
-        with self._timed("address"):
-            for slot, job in zip(self._slots, jobs, strict=False):
-                self._address_pass(slot, job)
-        with self._timed("gather"):
-            for slot, job in zip(self._slots, jobs, strict=False):
-                self._gather_pass(slot, job)
-        with self._timed("normals"):
+            self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
             for job in jobs:
+                self._camera_pass("peel", scratch.peel_fbo, job, job.tool)
+        with self._timed("address"):
+            self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), jobs)
+            for job in jobs:
+                self._camera_pass("address", scratch.address_fbo, job, job.target)
+        by_map = sorted(jobs, key=lambda job: id(job.target.maps))
+        with self._timed("gather"):
+            for job in by_map:
+                self._gather_pass(job)
+        with self._timed("normals"):
+            for job in by_map:
                 target = job.target
                 rebuild_normals(
                     self.gl,
@@ -199,22 +259,36 @@ class Carver:
     ) -> list[CarveJob]:
         """Passes 1-3 only, for the CPU reference path (which then reads their buffers back)."""
         jobs = self.plan(target, tool, contact, target_depth, tool_depth)
+        jobs = next(self.scratch.pack(jobs), [])  # one hit's two cameras always fit
+        scratch = self.scratch
         with preserved(self.gl.ctx):
-            for slot, job in zip(self._slots, jobs, strict=False):
-                self._peel_pass(slot, job)
-                self._address_pass(slot, job)
+            self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
+            for job in jobs:
+                self._camera_pass("peel", scratch.peel_fbo, job, job.tool)
+            self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), jobs)
+            for job in jobs:
+                self._camera_pass("address", scratch.address_fbo, job, job.target)
         return jobs
 
-    def slot(self, index: int) -> _Scratch:
-        return self._slots[index]
-
-    def slot_textures(self, slot: int) -> moderngl.Texture:
-        """The address map of a slot of the last hit (for the debug view)."""
-        return self._slots[slot].address
+    def address_texture(self) -> moderngl.Texture:
+        """The address maps of the last batch, each in its job's tile (the debug view)."""
+        return self.scratch.address
 
     def release(self) -> None:
-        for slot in self._slots:
-            slot.release()
+        self.scratch.release()
+
+    def _clear(
+        self,
+        fbo: moderngl.Framebuffer,
+        clear: tuple[float, float, float, float, float],
+        jobs: list[CarveJob],
+    ) -> None:
+        """Clear the bounding box of the jobs' tiles to `clear` (colour, then depth)."""
+        if not jobs:
+            return
+        right = max(job.tile[0] + job.camera.resolution[0] for job in jobs)
+        top = max(job.tile[1] + job.camera.resolution[1] for job in jobs)
+        fbo.clear(*clear[:4], depth=clear[4], viewport=(0, 0, right, top))
 
     def _timed(self, name: str) -> AbstractContextManager:
         return self.pass_timer(name) if self.pass_timer else contextlib.nullcontext()
@@ -282,28 +356,14 @@ class Carver:
         )
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
-    def _address_pass(self, slot: _Scratch, job: CarveJob) -> None:
-        clear = (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0)  # (u, v, ..., depth: the far plane)
-        self._camera_pass("address", slot.address_fbo, clear, job, job.target, (slot.tool_depth,))
-
-    def _peel_pass(self, slot: _Scratch, job: CarveJob) -> None:
-        clear = (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0)  # (back, coverage, -, front; no depth test)
-        self._camera_pass("peel", slot.peel_fbo, clear, job, job.tool)
-
     def _camera_pass(
-        self,
-        name: str,
-        fbo: moderngl.Framebuffer,
-        clear: tuple[float, float, float, float, float],
-        job: CarveJob,
-        body: CarveBody,
-        inputs: tuple[moderngl.Texture, ...] = (),
+        self, name: str, fbo: moderngl.Framebuffer, job: CarveJob, body: CarveBody
     ) -> None:
-        """Passes 2 and 3: `body` (the target or the tool) drawn by the collision camera into its
-        own viewport of `fbo`, cleared first to `clear` (colour, then depth), sampling its own
-        height map and `inputs`."""
-        view = (0, 0, *job.camera.resolution)
-        fbo.clear(*clear[:4], depth=clear[4], viewport=view)
+        """Pass 2 ("address") or 3 ("peel"): `body` (the target or the tool) drawn by the
+        collision camera into the job's tile of `fbo` (cleared by the batch), sampling its own
+        height map (pass 2 also pass 3's result)."""
+        view = job.viewport
+        inputs = (self.scratch.tool_depth,) if name == "address" else ()
         target = body is job.target
         triangles = job.camera.target_view if target else job.camera.tool_view
         uniforms = job.target_uniforms if target else job.tool_uniforms
@@ -317,7 +377,7 @@ class Carver:
         )
 
     # -- pass 4 --------------------------------------------------------------------------------
-    def _gather_pass(self, slot: _Scratch, job: CarveJob) -> None:
+    def _gather_pass(self, job: CarveJob) -> None:
         maps = job.target.maps
         cam = job.camera
         px, py = cam.pixel_metres
@@ -337,6 +397,6 @@ class Carver:
                 maps.height_fbo,
                 (0, 0, *maps.size),
                 job.target.gpu_mesh.drawer(triangles, f"texels{gutter}"),
-                (slot.address, slot.tool_depth, maps.mask),
+                (self.scratch.address, self.scratch.tool_depth, maps.mask),
                 uniforms,
             )

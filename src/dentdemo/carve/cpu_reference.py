@@ -80,18 +80,17 @@ class CpuReference:
             self.mirror(body)
         jobs = self.carver.measure_passes(target, tool, contact, target_depth, tool_depth)
         # Both directions read the heights from before the hit: read everything first.
-        results = [self._new_heights(index, job) for index, job in enumerate(jobs)]
+        results = [self._new_heights(job) for job in jobs]
         for job, (rows, cols, heights) in zip(jobs, results, strict=True):
             self._apply(job, rows, cols, heights)
 
     # -- pass 4 --------------------------------------------------------------------------------
-    def _new_heights(self, index: int, job: CarveJob) -> tuple[np.ndarray, ...]:
-        slot = self.carver.slot(index)
+    def _new_heights(self, job: CarveJob) -> tuple[np.ndarray, ...]:
+        scratch = self.carver.scratch
         cam = job.camera
-        view = (0, 0, *cam.resolution)
-        address = self.gl.read_region(slot.address_fbo, view, 4, 0).astype(np.float64)
+        address = self.gl.read_region(scratch.address_fbo, job.viewport, 4, 0).astype(np.float64)
         # (back depth, coverage, -, front depth)
-        tool = self.gl.read_region(slot.peel_fbo, view, 4, 0).astype(np.float64)
+        tool = self.gl.read_region(scratch.peel_fbo, job.viewport, 4, 0).astype(np.float64)
         _, _, mask = self.mirror(job.target)
         texels = footprint_texels(job.target, cam, cam.slab, mask)
         snap_to_solid(texels, job.target)
