@@ -30,8 +30,9 @@ void main() {
     vec3 n = normalize(v_normal);
 #if SWEPT  // a built-in sphere or capsule: its smooth surface, not the facet
     {
-        depth = swept_view_depth(v_world, depth, false, u_eye, u_forward);
-        vec3 p = u_eye + u_forward * depth + (v_world - u_eye - u_forward * v_depth);
+        vec3 line = camera_line(gl_FragCoord.xy);  // exact: the same bits in any tile
+        depth = swept_view_depth(line, depth, false, u_eye, u_forward);
+        vec3 p = line + u_forward * depth;
         swept_snap(p, n);
     }
 #endif

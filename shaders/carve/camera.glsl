@@ -24,3 +24,10 @@ vec2 camera_pixel(vec3 rel) {
 bool inside_camera(ivec2 pixel) {
     return all(greaterThanEqual(pixel, ivec2(0))) && all(lessThan(pixel, u_resolution));
 }
+
+// The world point at view depth 0 on the view line through window position `frag` (gl_FragCoord:
+// the tile's pixel centres), from the pixel's index alone.
+vec3 camera_line(vec2 frag) {
+    vec2 ndc = (frag - vec2(u_tile)) / vec2(u_resolution) * 2.0 - 1.0;
+    return u_eye + u_right * (ndc.x * u_half_extent.x) + u_up * (ndc.y * u_half_extent.y);
+}

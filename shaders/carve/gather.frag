@@ -18,7 +18,7 @@
 #include "chart.glsl"
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
-uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front), LINEAR
+uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front)
 uniform float u_min_height;      // -max_dent_depth of the target, metres
 uniform float u_ceiling;         // no texel of the target is higher than this, metres
 uniform float u_pixel_diagonal;  // a camera pixel's diagonal, metres
@@ -34,16 +34,20 @@ bool tool_sample(ivec2 pixel, out float depth) {
     return tool.g > 0.5;
 }
 
-// The tool's depth at continuous pixel position p: bilinear, by the sampler, where the four pixels
-// around p all see the tool (their filtered coverage is 1; pixels without the tool hold 0 in both
-// channels, so depth / coverage is the blend of those that have it), else the pixel that holds p.
+// The tool's depth at continuous pixel position p: bilinear where the four pixels around p all see
+// the tool, else the pixel that holds p. The four are fetched and blended here, by p's offset from
+// them alone: the same bits wherever the camera's tile lies in the atlas.
 bool tool_depth_at(vec2 p, out float depth) {
     ivec2 base = ivec2(floor(p));
     if (all(greaterThanEqual(base, ivec2(0))) && all(lessThan(base + 1, u_resolution))) {
-        vec2 at = (p + 0.5 + vec2(u_tile)) / vec2(textureSize(u_tool_depth, 0));
-        vec2 tool = texture(u_tool_depth, at).rg;
-        if (tool.g >= FULL_COVERAGE) {
-            depth = tool.r / tool.g;
+        ivec2 at = base + u_tile;
+        vec2 d00 = texelFetch(u_tool_depth, at, 0).rg;
+        vec2 d10 = texelFetch(u_tool_depth, at + ivec2(1, 0), 0).rg;
+        vec2 d01 = texelFetch(u_tool_depth, at + ivec2(0, 1), 0).rg;
+        vec2 d11 = texelFetch(u_tool_depth, at + ivec2(1, 1), 0).rg;
+        if (min(min(d00.g, d10.g), min(d01.g, d11.g)) > 0.5) {
+            vec2 f = p - vec2(base);
+            depth = mix(mix(d00.r, d10.r, f.x), mix(d01.r, d11.r, f.x), f.y);
             return true;
         }
     }

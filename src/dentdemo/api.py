@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import CarveBody
+from dentdemo.carve.carver import CarveBody, CarveJob
 from dentdemo.carve.carver import Carver as _Carver
 from dentdemo.carve.surface import (
     MAX_MAP_SIZE,
@@ -335,10 +335,44 @@ class Carver:
         (the same press twice changes nothing). Nothing is read back. False, with no GPU work,
         when the bodies cannot meet (a tool moving off or along the surface) or the depths are
         not positive."""
-        carver, depth, tool_depth = self._arguments(target, tool, contact, depth, tool_depth)
-        frame = ContactFrame(contact.point, contact.direction)
-        jobs = carver.carve(target._body("target"), tool._body("tool"), frame, depth, tool_depth)
-        return bool(jobs)
+        return self.press_many([(target, tool, contact, depth, tool_depth)])[0]
+
+    def press_many(self, presses: Sequence[Sequence[object]]) -> list[bool]:
+        """Every press of a frame at once: `presses` holds (target, tool, contact, depth) or
+        (target, tool, contact, depth, tool_depth) tuples, each as for `press`, all checked
+        before any GPU work. They are carved as one batch: every press reads the heights from
+        before the batch, each pass runs once for all of them (far cheaper than one press at a
+        time), and where two presses dent the same texels the deeper wins. Presses whose dents
+        do not overlap give exactly what pressing them one by one gives. A surface may be the
+        target of one press and the tool of another. Returns, for each press, whether its
+        bodies could meet."""
+        if isinstance(presses, str | bytes) or not isinstance(presses, Sequence):
+            raise ArgumentError(f"presses must be a list of presses, got {type(presses).__name__}")
+        checked: list[tuple[DentableSurface, DentableSurface, Contact, float, float]] = []
+        for index, press in enumerate(presses):
+            if not isinstance(press, Sequence) or len(press) not in (4, 5):
+                raise ArgumentError(
+                    f"presses[{index}] must be (target, tool, contact, depth[, tool_depth]), "
+                    f"got {press!r}"
+                )
+            target, tool, contact, depth, *rest = press
+            try:
+                _, depth_m, tool_m = self._arguments(target, tool, contact, depth, *rest)
+            except ArgumentError as exc:
+                if len(presses) == 1:  # press(): its own arguments
+                    raise
+                raise ArgumentError(f"presses[{index}]: {exc}") from None
+            assert isinstance(target, DentableSurface) and isinstance(tool, DentableSurface)
+            assert isinstance(contact, Contact)
+            checked.append((target, tool, contact, depth_m, tool_m))
+        carver = self._live()
+        planned: list[list[CarveJob]] = []
+        for target, tool, contact, depth_m, tool_m in checked:
+            frame = ContactFrame(contact.point, contact.direction)
+            bodies = (target._body("target"), tool._body("tool"))
+            planned.append(carver.plan(*bodies, frame, depth_m, tool_m))
+        carver.carve_hits(planned)
+        return [bool(jobs) for jobs in planned]
 
     def release(self) -> None:
         """Free the collision camera's buffers (again: nothing)."""
@@ -346,12 +380,21 @@ class Carver:
             self._carver.release()
         self._carver = None
 
-    def _arguments(
-        self, target: object, tool: object, contact: object, depth: object, tool_depth: object
-    ) -> tuple[_Carver, float, float]:
-        """press()'s arguments checked: the carver, then both depths as floats."""
+    def _live(self) -> _Carver:
         if self._carver is None:
             raise ArgumentError("this Carver was released; make a new one")
+        return self._carver
+
+    def _arguments(
+        self,
+        target: object,
+        tool: object,
+        contact: object,
+        depth: object,
+        tool_depth: object = 0.0,
+    ) -> tuple[_Carver, float, float]:
+        """press()'s arguments checked: the carver, then both depths as floats."""
+        self._live()
         for name, surface in (("target", target), ("tool", tool)):
             if not isinstance(surface, DentableSurface):
                 raise ArgumentError(
@@ -368,7 +411,7 @@ class Carver:
         if not isinstance(contact, Contact):
             raise ArgumentError(f"contact must be a dentdemo.Contact, got {type(contact).__name__}")
         metres = "a finite number of metres >= 0"
-        return self._carver, _real("depth", depth, metres), _real("tool_depth", tool_depth, metres)
+        return self._live(), _real("depth", depth, metres), _real("tool_depth", tool_depth, metres)
 
 
 def export_gltf(

@@ -105,32 +105,48 @@ class _Scratch:
         self.tool_depth = ctx.texture(size, 4, dtype="f4")
         self.depth = ctx.depth_texture(size)
         self.address.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        # Pass 4 interpolates the tool's depth between pixels with the sampler; pass 3 clears only
-        # its own viewport, so the border of what is in use is never sampled across.
-        self.tool_depth.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.tool_depth.filter = (moderngl.NEAREST, moderngl.NEAREST)  # read by texelFetch
         self.address_fbo = ctx.framebuffer([self.address], self.depth)
         self.peel_fbo = ctx.framebuffer([self.tool_depth], self.depth)
 
     def release(self) -> None:
         release(self.address_fbo, self.peel_fbo, self.address, self.tool_depth, self.depth)
 
-    def pack(self, jobs: list[CarveJob]) -> Iterator[list[CarveJob]]:
-        """`jobs` placed in tiles, as consecutive batches that each fit the atlas: shelves of
-        tiles left to right, bottom to top, one pixel apart."""
-        width, height = self.size
+    def pack(self, hits: list[list[CarveJob]]) -> Iterator[list[CarveJob]]:
+        """The directions of `hits` placed in tiles, as consecutive batches that each fit the
+        atlas (a hit's directions stay in one batch: both read the heights from before it)."""
         batch: list[CarveJob] = []
-        x = y = shelf = 0
-        for job in jobs:
+        cursor = (0, 0, 0)
+        for hit in hits:
+            placed = self._place(hit, cursor)
+            if placed is None and batch:  # full: this hit starts the next batch
+                yield batch
+                batch, cursor = [], (0, 0, 0)
+                placed = self._place(hit, cursor)
+            if placed is None:
+                raise ValueError("a hit's cameras do not fit the empty atlas")
+            jobs, cursor = placed
+            batch += jobs
+        if batch:
+            yield batch
+
+    def _place(
+        self, hit: list[CarveJob], cursor: tuple[int, int, int]
+    ) -> tuple[list[CarveJob], tuple[int, int, int]] | None:
+        """`hit`'s cameras as tiles from `cursor` (x, y, the shelf's height) on: shelves left to
+        right, bottom to top, one pixel apart; None where they do not fit."""
+        width, height = self.size
+        x, y, shelf = cursor
+        placed = []
+        for job in hit:
             w, h = job.camera.resolution
             if x + w > width:
                 x, y, shelf = 0, y + shelf + 1, 0
             if y + h > height:
-                yield batch
-                batch, x, y, shelf = [], 0, 0, 0
-            batch.append(job.placed((x, y)))
+                return None
+            placed.append(job.placed((x, y)))
             x, shelf = x + w + 1, max(shelf, h)
-        if batch:
-            yield batch
+        return placed, (x, y, shelf)
 
 
 #: Pass 3's blend: the farthest back face and the coverage (red, green: MAX), the nearest front
@@ -208,16 +224,19 @@ class Carver:
         heights from before the batch, each pass runs once for all hits, and where two hits dent
         the same texels the deeper wins (MIN). A batch whose cameras do not fit the atlas
         together is carved as consecutive batches. Returns the directions carved."""
-        jobs = [job for press in presses for job in self.plan(*press)]
-        if jobs:
+        return self.carve_hits([self.plan(*press) for press in presses])
+
+    def carve_hits(self, hits: list[list[CarveJob]]) -> list[CarveJob]:
+        """Passes 2-5 of planned hits (each its list of directions) as one batch (see
+        `carve_many`); returns the directions with their tiles."""
+        placed: list[CarveJob] = []
+        if any(hits):
             with preserved(self.gl.ctx):  # the host's GL state, as it left it
-                placed = []
-                for batch in self.scratch.pack(jobs):
+                for batch in self.scratch.pack([hit for hit in hits if hit]):
                     self._run(batch)
                     placed += batch
-            jobs = placed
-            self.last_jobs = jobs
-        return jobs
+            self.last_jobs = placed
+        return placed
 
     def _run(self, jobs: list[CarveJob]) -> None:
         """Passes 3, 2, 4 and 5 of every direction of a batch (pass 2 reads pass 3's front
@@ -259,7 +278,7 @@ class Carver:
     ) -> list[CarveJob]:
         """Passes 1-3 only, for the CPU reference path (which then reads their buffers back)."""
         jobs = self.plan(target, tool, contact, target_depth, tool_depth)
-        jobs = next(self.scratch.pack(jobs), [])  # one hit's two cameras always fit
+        jobs = next(self.scratch.pack([jobs]), []) if jobs else []  # one hit always fits
         scratch = self.scratch
         with preserved(self.gl.ctx):
             self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)

@@ -1,0 +1,156 @@
+"""A frame's hits carved as one batch (docs/carve.md, "Batches"): every hit reads the heights from
+before the batch, so hits whose footprints do not meet give exactly what pressing them one by one
+gives, and where footprints overlap a texel takes the deeper of the two hits' values (each worked
+out alone, from the same start). Oracle: the same hits pressed one at a time on fresh bodies."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import Carver
+from dentdemo.model.shapes import Plate, Sphere
+from surface_helpers import DENTED, Bodies, heights, press_mesh, translation
+
+DOWN = np.array([0.0, -1.0, 0.0])
+#: Well apart on a 1 m plate: footprints (and the normals' ring) never meet.
+SPOTS = [(-0.3, -0.3), (0.0, -0.3), (0.3, -0.3), (-0.3, 0.2), (0.05, 0.15), (0.3, 0.3)]
+
+
+def _scene(bodies: Bodies, count: int, radius: float = 0.04):
+    plate = bodies.make(press_mesh(Plate(1.0), 2), 512)
+    balls = [bodies.make(press_mesh(Sphere(radius), 1), 128) for _ in range(count)]
+    return plate, balls
+
+
+def _presses(plate, balls, spots, depths, radius: float = 0.04):
+    presses = []
+    for ball, (x, z), depth in zip(balls, spots, depths, strict=True):
+        ball.model = translation((x, radius, z))
+        presses.append((plate, ball, ContactFrame(np.array([x, 0.0, z]), DOWN), depth, depth / 4))
+    return presses
+
+
+def _maps(gl, body) -> tuple[np.ndarray, np.ndarray]:
+    return heights(gl, body), gl.read(body.maps.normal)
+
+
+@pytest.mark.parametrize("max_resolution", [1023, 40], ids=["one-batch", "atlas-overflow"])
+def test_disjoint_hits_in_a_batch_equal_one_by_one(gl, max_resolution):
+    bodies = Bodies(gl)
+    carver = Carver(gl, max_resolution=max_resolution)
+    try:
+        depths = [0.004, 0.006, 0.003, 0.008, 0.005, 0.007]
+        batched_plate, batched_balls = _scene(bodies, len(SPOTS))
+        serial_plate, serial_balls = _scene(bodies, len(SPOTS))
+        batch = _presses(batched_plate, batched_balls, SPOTS, depths)
+        batches = list(carver.scratch.pack([carver.plan(*press) for press in batch]))
+        if max_resolution == 40:  # the atlas holds two cameras: the batch is split
+            assert len(batches) >= 3
+        else:
+            assert len(batches) == 1 and len(batches[0]) == 2 * len(SPOTS)
+        carver.carve_many(batch)
+        for press in _presses(serial_plate, serial_balls, SPOTS, depths):
+            carver.carve(*press)
+        for a, b in [(batched_plate, serial_plate), *zip(batched_balls, serial_balls, strict=True)]:
+            (ha, na), (hb, nb) = _maps(gl, a), _maps(gl, b)
+            assert (ha < DENTED).sum() > 10
+            assert np.array_equal(ha, hb) and np.array_equal(na, nb)
+        # Each footprint is the one pressed there: six separate dents of the plate.
+        h = heights(gl, batched_plate)
+        assert -h.min() == pytest.approx(max(depths), rel=0.01)
+    finally:
+        carver.release()
+        bodies.release()
+
+
+def test_overlapping_hits_take_the_deeper_of_each_alone(gl):
+    bodies = Bodies(gl)
+    carver = Carver(gl)
+    try:
+        spots, depths = [(0.0, 0.0), (0.03, 0.01), (-0.02, 0.02)], [0.006, 0.004, 0.009]
+        plate, balls = _scene(bodies, 3)
+        carver.carve_many(_presses(plate, balls, spots, depths))
+        got = heights(gl, plate)
+        alone = []
+        for spot, depth in zip(spots, depths, strict=True):
+            fresh, (ball,) = _scene(bodies, 1)
+            carver.carve(*_presses(fresh, [ball], [spot], [depth])[0])
+            alone.append(heights(gl, fresh))
+        expected = np.minimum.reduce(alone)
+        # The footprints do overlap: somewhere two hits dent the same texel.
+        assert ((np.stack(alone) < DENTED).sum(axis=0) >= 2).sum() > 50
+        assert np.array_equal(got, expected)
+    finally:
+        carver.release()
+        bodies.release()
+
+
+def test_a_body_can_be_target_and_tool_in_one_batch(gl):
+    """Ball 1 presses the plate (it is a tool and takes a dent too) while ball 2 presses ball 1
+    from above (ball 1 is a target): ball 1 ends with the deeper of the two dents each leaves
+    on it alone, on the same start."""
+    bodies = Bodies(gl)
+    carver = Carver(gl)
+    r = 0.04
+
+    def scene():
+        plate, (one, two) = _scene(bodies, 2, r)
+        one.model = translation((0.0, r, 0.0))
+        two.model = translation((0.0, 3 * r, 0.0))
+        on_plate = (plate, one, ContactFrame(np.zeros(3), DOWN), 0.005, 0.003)
+        on_ball = (one, two, ContactFrame(np.array([0.0, 2 * r, 0.0]), DOWN), 0.004, 0.0)
+        return plate, one, on_plate, on_ball
+
+    try:
+        plate, one, on_plate, on_ball = scene()
+        carver.carve_many([on_plate, on_ball])
+        got_plate, got_one = heights(gl, plate), heights(gl, one)
+        alone = []
+        for pick in (0, 1):
+            fresh_plate, fresh_one, *presses = scene()
+            carver.carve(*presses[pick])
+            alone.append((heights(gl, fresh_plate), heights(gl, fresh_one)))
+        assert np.array_equal(got_plate, alone[0][0])  # only the first press dents the plate
+        assert np.array_equal(got_one, np.minimum(alone[0][1], alone[1][1]))
+        # Both of ball 1's dents are there: one at its bottom, one at its top.
+        assert (alone[0][1] < DENTED).sum() > 5 and (alone[1][1] < DENTED).sum() > 5
+        assert not np.array_equal(got_one, alone[0][1]) and not np.array_equal(got_one, alone[1][1])
+    finally:
+        carver.release()
+        bodies.release()
+
+
+def test_press_many_in_the_public_api(gl):
+    """press_many checks every press before any GPU work, says which could meet, and dents as
+    the presses one by one would where they do not overlap."""
+    import dentdemo
+    from dentdemo.errors import ArgumentError
+
+    ctx = gl.ctx
+    make = dentdemo.DentableSurface
+    plates = [make(ctx, dentdemo.shape_mesh(dentdemo.Plate(1.0)), 256) for _ in range(2)]
+    balls = [make(ctx, dentdemo.shape_mesh(dentdemo.Sphere(0.04)), 64) for _ in range(4)]
+    carver = dentdemo.Carver(ctx)
+    try:
+        for ball, x in zip(balls, (-0.2, 0.2, -0.2, 0.2), strict=True):
+            ball.model = translation((x, 0.04, 0.0))
+        down, up = (0, -1, 0), (0, 1, 0)
+        presses = [
+            (plates[0], balls[0], dentdemo.Contact((-0.2, 0, 0), down), 0.005),
+            (plates[0], balls[1], dentdemo.Contact((0.2, 0, 0), up), 0.005, 0.001),  # leaves
+        ]
+        with pytest.raises(ArgumentError, match=r"presses\[1\].*depth"):
+            carver.press_many([presses[0], (plates[0], balls[1], presses[0][2], -1.0)])
+        with pytest.raises(ArgumentError, match=r"presses\[0\] must be"):
+            carver.press_many([(plates[0], balls[0])])
+        assert not plates[0].heights().any()  # nothing was pressed by the refused calls
+        assert carver.press_many(presses) == [True, False]
+        assert carver.press(plates[1], balls[2], dentdemo.Contact((-0.2, 0, 0), down), 0.005)
+        assert np.array_equal(plates[0].heights(), plates[1].heights())
+        assert np.array_equal(balls[0].heights(), balls[2].heights())
+        assert not balls[1].heights().any()
+    finally:
+        for thing in (carver, *balls, *plates):
+            thing.release()
