@@ -24,6 +24,7 @@ def test_bench_tiny_json_schema(tmp_path):
         "machine",
         "press",
         "per_hit",
+        "burst",
         "passes",
         "frames",
         "memory",
@@ -37,6 +38,16 @@ def test_bench_tiny_json_schema(tmp_path):
         assert len(row["camera_pixels"]) == 2 and all(p > 0 for p in row["camera_pixels"])
     assert [r["map_size"] for r in data["per_hit"]] == [128, 256]
     assert {p["pass"] for p in data["passes"]} == {"address", "peel", "gather", "normals"}
+    # Bursts of 1, 4, 16 and 64 hits at every map size: batched, one by one and the CPU path.
+    assert [(b["map_size"], b["hits"]) for b in data["burst"]] == [
+        (size, hits) for size in (128, 256) for hits in (1, 4, 16, 64)
+    ]
+    for b in data["burst"]:
+        ms = [b[k] for k in ("gpu_ms_per_hit", "serial_ms_per_hit", "cpu_ms_per_hit")]
+        assert all(v > 0 for v in ms)
+        parts = b["plan_ms_per_hit"] + b["submit_ms_per_hit"] + b["wait_ms_per_hit"]
+        assert 0 < parts
+    assert "batched ms/hit" in result.stdout
     assert [(d["plate_side_m"], d["map_size"]) for d in data["same_dent"]] == [
         (0.25, 128),
         (0.5, 256),

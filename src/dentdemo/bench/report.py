@@ -35,6 +35,19 @@ def print_table(r: dict) -> None:
         )
         px = [*row["camera_pixels"], 0, 0]
         print(f"{row['map_size']:>5}² {px[0]:>12} {px[1]:>11} {row['gpu_ms']:11.2f} {cpu}")
+    bursts = r.get("burst", [])
+    if bursts:
+        print(
+            f"{'burst':>6} {'map':>6} {'batched ms/hit':>15} {'(plan':>7} {'submit':>7} "
+            f"{'wait)':>7} {'one by one':>11} {'CPU path':>9}  (amortised per hit)"
+        )
+        for b in bursts:
+            cpu = f"{b['cpu_ms_per_hit']:9.2f}" if b["cpu_ms_per_hit"] is not None else f"{'-':>9}"
+            print(
+                f"{b['hits']:>6} {b['map_size']:>5}² {b['gpu_ms_per_hit']:15.3f} "
+                f"{b['plan_ms_per_hit']:7.3f} {b['submit_ms_per_hit']:7.3f} "
+                f"{b['wait_ms_per_hit']:7.3f} {b['serial_ms_per_hit']:11.3f} {cpu}"
+            )
     same = r.get("same_dent", [])
     if same:
         print(

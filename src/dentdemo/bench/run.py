@@ -3,6 +3,7 @@ pass, sandbox frame times against scene size, and the memory of the maps."""
 
 from __future__ import annotations
 
+import math
 import os
 import platform
 import statistics
@@ -16,7 +17,8 @@ import numpy as np
 from dentdemo import __version__, interrupt
 from dentdemo.app.press import make_setup, shape_from_args
 from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
-from dentdemo.carve.carver import Carver
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import CarveBody, Carver
 from dentdemo.carve.cpu_reference import CpuReference
 from dentdemo.gl.context import GLContext, create_headless
 from dentdemo.progress import progress_bar
@@ -116,6 +118,95 @@ def same_dent(gl: GLContext, plates: list[tuple[float, int]], reps: int) -> list
         )
     for setup in setups:
         _release(setup)
+    carver.release()
+    return rows
+
+
+#: Hits in a burst: the bench's press at this many spots of the plate, carved together.
+BURSTS = [1, 4, 16, 64]
+
+
+def _burst_presses(setup, hits: int) -> list[tuple]:
+    """The bench's press at `hits` spots on a grid over the plate's middle, each with the ball
+    posed at first touch there (one ball body: its own dents overlap, as they would)."""
+    side = math.ceil(math.sqrt(hits))
+    spacing = 0.8 * PRESS["plate_side_m"] / max(side, 1)
+    target, tool, contact, depth, tool_depth = _press(setup)
+    presses = []
+    for k in range(hits):
+        offset = np.array(
+            [(k % side - (side - 1) / 2) * spacing, 0.0, (k // side - (side - 1) / 2) * spacing]
+        )
+        model = np.array(tool.model, dtype=np.float64)
+        model[:3, 3] += offset
+        point = np.asarray(contact.point, dtype=np.float64) + offset
+        moved = CarveBody(tool.gpu_mesh, tool.maps, model)
+        presses.append((target, moved, ContactFrame(point, contact.direction), depth, tool_depth))
+    return presses
+
+
+def burst(
+    gl: GLContext, sizes: list[int], cpu_sizes: list[int], reps: int, tick=lambda: None
+) -> list[dict]:
+    """ms per hit, amortised, of bursts of the bench's press: batched on the GPU (split into
+    planning, submission and the wait for the GPU), the same hits one by one, and the CPU path
+    one by one. Runs alternate within every repetition."""
+    carver = Carver(gl)
+    finish = gl.ctx.finish
+    rows = []
+    for size in sizes:
+        setup = _press_setup(gl, size)
+        reference = CpuReference(gl, carver) if size in cpu_sizes else None
+        cpu_setup = _press_setup(gl, size) if reference is not None else None
+        if reference is not None and cpu_setup is not None:
+            for body in (cpu_setup.target, cpu_setup.tool):
+                reference.mirror(body)
+        for hits in BURSTS:
+            interrupt.check()
+            presses = _burst_presses(setup, hits)
+            split: dict[str, list[float]] = {"plan": [], "submit": [], "wait": []}
+
+            def batched(presses=presses, split=split) -> None:
+                start = time.perf_counter()
+                planned = [carver.plan(*press) for press in presses]
+                planning = time.perf_counter()
+                carver.carve_hits(planned)
+                submitted = time.perf_counter()
+                finish()
+                done = time.perf_counter()
+                split["plan"].append((planning - start) * 1e3)
+                split["submit"].append((submitted - planning) * 1e3)
+                split["wait"].append((done - submitted) * 1e3)
+
+            def serial(presses=presses) -> None:
+                for press in presses:
+                    carver.carve(*press)
+
+            runs: list[Callable[[], None]] = [batched, serial]
+            if reference is not None and cpu_setup is not None:
+                cpu_presses = _burst_presses(cpu_setup, hits)
+
+                def cpu(cpu_presses=cpu_presses, reference=reference) -> None:
+                    for press in cpu_presses:
+                        reference.carve(*press)
+
+                runs.append(cpu)
+            medians = interleaved_medians(runs, finish, reps)
+            row = {
+                "hits": hits,
+                "map_size": size,
+                "gpu_ms_per_hit": medians[0] / hits,
+                "serial_ms_per_hit": medians[1] / hits,
+                "cpu_ms_per_hit": medians[2] / hits if len(medians) > 2 else None,
+                "plan_ms_per_hit": statistics.median(split["plan"]) / hits,
+                "submit_ms_per_hit": statistics.median(split["submit"]) / hits,
+                "wait_ms_per_hit": statistics.median(split["wait"]) / hits,
+            }
+            rows.append(row)
+        _release(setup)
+        if cpu_setup is not None:
+            _release(cpu_setup)
+        tick()
     carver.release()
     return rows
 
@@ -304,8 +395,8 @@ def memory(gl: GLContext) -> dict:
         "bytes_per_texel": per_texel,
         "layout": "R32F height (4) + RGBA8 normal (4) + R8UI chart mask (1)",
         "map_bytes": {str(s): s * s * per_texel for s in (256, 512, 1024, 2048, 4096)},
-        # Two directions: address RGBA32F (16) + tool depth and coverage RG32F (8) + depth (4).
-        "scratch_bytes": 2 * 1023 * 1023 * (16 + 8 + 4),
+        # The cameras' atlas: address RGBA32F (16) + the tool's extent RGBA32F (16) + depth (4).
+        "scratch_bytes": 2048 * 1024 * (16 + 16 + 4),
     }
 
 
@@ -314,7 +405,7 @@ def run_bench(mode: str, window: bool = False) -> dict:
     is needed: the caller checks)."""
     cfg = MODES[mode]
     win = cfg["window"]
-    stages = len(cfg["sizes"]) + 1 + len(cfg["bodies"])
+    stages = 2 * len(cfg["sizes"]) + 1 + len(cfg["bodies"])
     if window:
         stages += len(win["presets"]) * len(win["bodies"])
     start = time.perf_counter()
@@ -328,6 +419,7 @@ def run_bench(mode: str, window: bool = False) -> dict:
     gl = create_headless()
     try:
         rows, passes, agreement = per_hit(gl, cfg["sizes"], cfg["cpu_sizes"], cfg["reps"], tick)
+        bursts = burst(gl, cfg["sizes"], cfg["cpu_sizes"], cfg["reps"], tick)
         same = same_dent(gl, cfg["same_dent"], cfg["reps"])
         tick()
         frames = frame_times(gl, cfg["bodies"], cfg["frames"], tick=tick)
@@ -346,6 +438,7 @@ def run_bench(mode: str, window: bool = False) -> dict:
             },
             "press": PRESS,
             "per_hit": rows,
+            "burst": bursts,
             "same_dent": same,
             "passes": passes,
             "frames": frames,
