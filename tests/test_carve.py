@@ -318,7 +318,7 @@ def test_flat_face_into_sphere_leaves_the_cut_cap(gl, carver, map_size):
     # A box's flat face pressed d into a ball of radius R cuts it by a plane: along the surface
     # normal at angle theta from the press axis, h = min(0, -(d - R (1 - cos theta)) / cos theta).
     # Curved charts put several camera pixels in one texel: this checks the texel-centre estimate.
-    from dentdemo.mesh.primitives import _CUBE_FACES, _cell
+    from dentdemo.mesh.primitives import CUBE_FACES, _cell
 
     radius, depth = 0.2, 0.012
     s = setup(
@@ -332,7 +332,7 @@ def test_flat_face_into_sphere_leaves_the_cut_cap(gl, carver, map_size):
     )
     carver.carve(s.target, s.tool, s.contact, depth)
     h = heights(gl, s.target)
-    normal, a, b = (np.asarray(x, float) for x in _CUBE_FACES[2])  # the +Y chart
+    normal, a, b = (np.asarray(x, float) for x in CUBE_FACES[2])  # the +Y chart
     u0, v0, du, dv = _cell(2)
     centres = (np.arange(map_size) + 0.5) / map_size
     u, v = np.meshgrid(centres, centres)

@@ -154,3 +154,75 @@ def test_press_many_in_the_public_api(gl):
     finally:
         for thing in (carver, *balls, *plates):
             thing.release()
+
+
+def _sphere_press(bodies, kind: str, degrees: float):
+    """A ball into a plate, tilted `degrees` (both bodies dented), or a ball into a ball whose
+    contact lies `degrees` round from the press direction (towards the target's silhouette)."""
+    import math
+
+    from surface_helpers import rotation
+
+    r = 0.04
+    t = math.radians(degrees)
+    tool = bodies.make(press_mesh(Sphere(r), 2), 256)
+    if kind == "plate":
+        target = bodies.make(press_mesh(Plate(0.5), 2), 512)
+        direction = np.array([math.sin(t), -math.cos(t), 0.0])
+        tool.model = translation((0.0, r, 0.0)) @ rotation((1, 2, 3), 37)
+        return target, tool, ContactFrame(np.zeros(3), direction), 0.006, 0.002
+    target = bodies.make(press_mesh(Sphere(0.06), 2), 512)
+    normal = np.array([math.sin(t), math.cos(t), 0.0])  # outward at the contact
+    point = 0.06 * normal
+    tool.model = translation(point + r * normal) @ rotation((0, 1, 1), 20)
+    return target, tool, ContactFrame(point, -np.array([0.0, 1.0, 0.0])), 0.004, 0.002
+
+
+@pytest.mark.parametrize(
+    "kind,degrees", [("plate", 0), ("plate", 25), ("plate", 45), ("ball", 0), ("ball", 50)]
+)
+def test_spheres_drawn_as_quads_carve_as_their_facets_did(gl, bodies, kind, degrees):
+    """Passes 2 and 3 draw a built-in sphere as one quad over its extent and find its exact
+    surface per pixel; the dents match those of the sphere drawn as its facets (which found the
+    same exact surface within each facet's pixels), to 1e-6 m, on both bodies."""
+    carver = Carver(gl)
+    try:
+        results = []
+        for quads in (False, True):
+            carver.sphere_quads = quads
+            target, tool, contact, depth, tool_depth = _sphere_press(bodies, kind, degrees)
+            assert carver.carve(target, tool, contact, depth, tool_depth)
+            results.append((heights(gl, target), heights(gl, tool)))
+        for facets, quad in zip(*results, strict=True):
+            assert (quad < DENTED).sum() > 20
+            assert float(np.abs(facets - quad).max()) <= 1e-6
+    finally:
+        carver.release()
+
+
+def test_a_dented_sphere_drawn_as_a_quad_reads_its_own_heights(gl, bodies):
+    """The quad path finds a sphere's texel from the point itself (sphere_uv.glsl), the facet
+    path from the facet's uv: with heights already on the ball (a smooth pattern, up to 1 mm),
+    the two give the same dent in the plate where they pick the same texel, and never differ by
+    more than the pattern changes over one texel."""
+    carver = Carver(gl)
+    size = 256
+    u = (np.arange(size) + 0.5) / size
+    pattern = -0.0005 * (1 + np.sin(6 * np.pi * u)[None, :] * np.sin(4 * np.pi * u)[:, None])
+    step = 0.0005 * 6 * np.pi / size * 1.5  # the pattern's largest change over a texel, and some
+    try:
+        results = []
+        for quads in (False, True):
+            carver.sphere_quads = quads
+            target = bodies.make(press_mesh(Plate(0.5), 2), 512)
+            tool = bodies.make(press_mesh(Sphere(0.04), 2), size, initial_height=pattern)
+            tool.model = translation((0.0, 0.04, 0.0))
+            carver.carve(target, tool, ContactFrame(np.zeros(3), DOWN), 0.006)
+            results.append(heights(gl, target))
+        diff = np.abs(results[0] - results[1])
+        dented = results[1] < DENTED
+        assert dented.sum() > 100
+        assert float(np.median(diff[dented])) <= 1e-6
+        assert float(diff.max()) <= step
+    finally:
+        carver.release()

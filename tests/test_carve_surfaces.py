@@ -14,7 +14,7 @@ from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import Carver
 from dentdemo.carve.constants import MIN_COS
 from dentdemo.carve.cpu_reference import CpuReference
-from dentdemo.mesh.primitives import _CUBE_FACES, _cell
+from dentdemo.mesh.primitives import CUBE_FACES, _cell
 from dentdemo.mesh.primitives import sphere as sphere_mesh
 from dentdemo.model.shapes import Box, Capsule, Plate, Sphere
 from surface_helpers import (
@@ -125,7 +125,7 @@ def test_repeated_identical_presses_change_nothing(gl, carver, bodies, kind, til
 # -- a ball on a box edge, along the diagonal ------------------------------------------------------
 def _box_face_points(face: int, half: float, size: int):
     """World point of every texel centre of box chart `face` (NaN outside the chart)."""
-    normal, a, b = (np.asarray(x, dtype=np.float64) for x in _CUBE_FACES[face])
+    normal, a, b = (np.asarray(x, dtype=np.float64) for x in CUBE_FACES[face])
     u0, v0, du, dv = _cell(face)
     centres = (np.arange(size) + 0.5) / size
     u, v = np.meshgrid(centres, centres)
@@ -158,7 +158,7 @@ def test_ball_on_a_box_edge_dents_both_faces_continuously(gl, carver, bodies):
     volumes = []
     for face, edge_axis in ((0, "t"), (2, "s")):  # +X: y = +half at t = 1; +Y: x = +half at s = 1
         p, inside, s, t = _box_face_points(face, half, size)
-        normal = np.asarray(_CUBE_FACES[face][0], dtype=np.float64)
+        normal = np.asarray(CUBE_FACES[face][0], dtype=np.float64)
         cos = normal @ diagonal  # 1/sqrt(2) on both faces
         # The method's model: the texel moves along its normal to where the press ray leaves the
         # ball, h = -t_exit / max(cos, MIN_COS).
@@ -332,7 +332,7 @@ def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies, subd
     point = np.array([0.0, radius, 0.0])
     carver.carve(sphere, tool, ContactFrame(point, np.array([0.0, -1.0, 0.0])), depth)
     normal = _decode(gl.read(sphere.maps.normal))
-    face_n, a, b = (np.asarray(x, float) for x in _CUBE_FACES[2])
+    face_n, a, b = (np.asarray(x, float) for x in CUBE_FACES[2])
     u0, v0, du, dv = _cell(2)
     c = (np.arange(size) + 0.5) / size
     u, v = np.meshgrid(c, c)

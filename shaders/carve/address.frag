@@ -16,12 +16,38 @@ uniform sampler2D u_height;  // target height map, R32F metres
 uniform sampler2D u_tool;    // pass 3: (back depth, coverage, -, front depth), metres
 uniform float u_advance;     // how far the tool was advanced along u_forward, metres
 
+layout(location = 0) out vec4 f_address;  // (u, v, view depth, bumped view depth), metres
+
+// Whether a surface at this bumped depth lies behind the tool: in front of the tool's nearest face
+// at this pixel at first touch (pass 3's front less the advance). An open tool, such as a plate
+// seen from below, may show no front face: then no test.
+bool behind_tool(float bumped) {
+    vec4 tool = texelFetch(u_tool, ivec2(gl_FragCoord.xy), 0);
+    return tool.a < 0.5 * NO_FRONT && bumped < tool.a - u_advance - FRONT_TOLERANCE;
+}
+
+#if QUAD  // a built-in sphere as one quad: where the pixel's view line enters the exact solid
+#include "sphere_uv.glsl"
+uniform float u_near_clip;  // surface.vert's clip distance, done here: view depth, metres
+
+void main() {
+    ivec2 size = textureSize(u_height, 0);
+    vec3 line = camera_line(gl_FragCoord.xy);
+    float depth = swept_view_depth(line, -1e30, false, u_eye, u_forward);
+    if (depth < u_near_clip) discard;  // missed, or nearer than the slab
+    vec3 p = line + u_forward * depth, n;
+    swept_snap(p, n);
+    vec2 uv = sphere_uv(p);
+    float bumped = bumped_depth(depth, texelFetch(u_height, texel_of(uv, size), 0).r, n, u_forward);
+    if (behind_tool(bumped)) discard;
+    gl_FragDepth = window_depth(bumped);
+    f_address = vec4(uv, depth, bumped);
+}
+#else
 in vec2 v_uv;
 in float v_depth;    // view depth of the mesh surface, metres
 in vec3 v_normal;
 in vec3 v_world;
-
-layout(location = 0) out vec4 f_address;  // (u, v, view depth, bumped view depth), metres
 
 void main() {
     ivec2 size = textureSize(u_height, 0);
@@ -37,9 +63,8 @@ void main() {
     }
 #endif
     float bumped = bumped_depth(depth, h, n, u_forward);
-    vec4 tool = texelFetch(u_tool, ivec2(gl_FragCoord.xy), 0);
-    // (An open tool, such as a plate seen from below, may show no front face: then no test.)
-    if (tool.a < 0.5 * NO_FRONT && bumped < tool.a - u_advance - FRONT_TOLERANCE) discard;
+    if (behind_tool(bumped)) discard;
     gl_FragDepth = window_depth(bumped);
     f_address = vec4(v_uv, depth, bumped);
 }
+#endif

@@ -1,4 +1,7 @@
 // The orthographic collision camera (world space, metres).
+#ifndef QUAD
+#define QUAD 0  // 1: a built-in sphere drawn as one quad (quad.vert) in passes 2 and 3
+#endif
 uniform vec3 u_eye;          // camera origin
 uniform vec3 u_right;        // unit; screen +x
 uniform vec3 u_up;           // unit; screen +y

@@ -14,12 +14,32 @@
 
 uniform sampler2D u_height;  // tool height map, R32F metres
 
+out vec4 f_tool;  // (back view depth m, coverage 1, 0, front view depth m)
+
+#if QUAD  // a built-in sphere as one quad: both faces of the exact solid in one fragment
+#include "sphere_uv.glsl"
+
+// The bumped view depth where the pixel's view line enters (or leaves) the solid.
+float bumped_at(vec3 line, float depth, ivec2 size) {
+    vec3 p = line + u_forward * depth, n;
+    swept_snap(p, n);
+    float h = texelFetch(u_height, texel_of(sphere_uv(p), size), 0).r;
+    return bumped_depth(depth, h, n, u_forward);
+}
+
+void main() {
+    ivec2 size = textureSize(u_height, 0);
+    vec3 line = camera_line(gl_FragCoord.xy);
+    float enter = swept_view_depth(line, -1e30, false, u_eye, u_forward);
+    if (enter < -1e29) discard;  // the view line misses the solid
+    float leave = swept_view_depth(line, enter, true, u_eye, u_forward);
+    f_tool = vec4(bumped_at(line, leave, size), 1.0, 0.0, bumped_at(line, enter, size));
+}
+#else
 in vec2 v_uv;
 in float v_depth;
 in vec3 v_normal;
 in vec3 v_world;
-
-out vec4 f_tool;  // (back view depth m, coverage 1, 0, front view depth m)
 
 void main() {
     ivec2 size = textureSize(u_height, 0);
@@ -38,3 +58,4 @@ void main() {
     depth = bumped_depth(depth, h_tool, n, u_forward);
     f_tool = back ? vec4(depth, 1.0, 0.0, NO_FRONT) : vec4(NO_TOOL, 1.0, 0.0, depth);
 }
+#endif

@@ -149,6 +149,25 @@ class _Scratch:
         return placed, (x, y, shelf)
 
 
+def _sphere_atlas() -> dict[str, str]:
+    """The built-in sphere's atlas (mesh/primitives.py) as defines for sphere_uv.glsl."""
+    from dentdemo.mesh.primitives import CUBE_FACES, GUTTER
+
+    def table(k: int) -> str:
+        return (
+            "vec3[6]("
+            + ", ".join(f"vec3{tuple(float(x) for x in f[k])}" for f in CUBE_FACES)
+            + ")"
+        )
+
+    return {
+        "CUBE_FACE_N": table(0),
+        "CUBE_FACE_A": table(1),
+        "CUBE_FACE_B": table(2),
+        "ATLAS_GUTTER": repr(float(GUTTER)),
+    }
+
+
 #: Pass 3's blend: the farthest back face and the coverage (red, green: MAX), the nearest front
 #: face (alpha: MIN); order-independent, so the result is the same whatever order faces come in.
 _PEEL_BLEND = Blend(
@@ -174,23 +193,28 @@ class Carver:
         #: Two cameras of the largest resolution side by side (the memory of one hit's two
         #: directions); many small ones.
         self.scratch = _Scratch(gl.ctx, (2 * max_resolution + 2, max_resolution + 1))
-        #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT).
+        #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
+        #: is a sphere drawn as one quad: QUAD).
         self._surface = {
-            (name, swept): Pass(
+            (name, swept, quad): Pass(
                 name,
                 program(
                     gl.cache,
                     gl.ctx,
-                    "carve/surface.vert",
+                    "carve/quad.vert" if quad else "carve/surface.vert",
                     f"carve/{name}.frag",
-                    defines=shader_defines(SWEPT=int(swept)),
+                    defines=shader_defines(SWEPT=int(swept), QUAD=int(quad), **_sphere_atlas()),
                 ),
                 state,
                 samplers,
             )
             for name, (state, samplers) in _SURFACE_PASSES.items()
-            for swept in (False, True)
+            for swept, quad in ((False, False), (True, False), (True, True))
         }
+        self._quad_vaos: dict[int, moderngl.VertexArray] = {}
+        #: Draw built-in spheres in passes 2 and 3 as one quad each (their facets when False:
+        #: the tests compare the two).
+        self.sphere_quads = True
         self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
@@ -295,6 +319,7 @@ class Carver:
 
     def release(self) -> None:
         self.scratch.release()
+        release(*self._quad_vaos.values())
 
     def _clear(
         self,
@@ -386,14 +411,17 @@ class Carver:
         target = body is job.target
         triangles = job.camera.target_view if target else job.camera.tool_view
         uniforms = job.target_uniforms if target else job.tool_uniforms
-        self._surface[name, bool(uniforms["u_swept"])].run(
-            self.gl.ctx,
-            fbo,
-            view,
-            body.gpu_mesh.drawer(triangles, name),
-            (body.maps.height, *inputs),
-            uniforms,
+        quad = self.sphere_quads and bool(uniforms.get("u_sphere"))
+        draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
+        self._surface[name, bool(uniforms["u_swept"]), quad].run(
+            self.gl.ctx, fbo, view, draw, (body.maps.height, *inputs), uniforms
         )
+
+    def _draw_quad(self, prog: moderngl.Program) -> None:
+        """quad.vert's four corners (no vertex data)."""
+        if prog.glo not in self._quad_vaos:
+            self._quad_vaos[prog.glo] = self.gl.ctx.vertex_array(prog, [])
+        self._quad_vaos[prog.glo].render(moderngl.TRIANGLE_STRIP, vertices=4)
 
     # -- pass 4 --------------------------------------------------------------------------------
     def _gather_pass(self, job: CarveJob) -> None:

@@ -116,7 +116,7 @@ def clip_uniforms(
 def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
     """A built-in sphere or capsule's own solid (world metres) for the passes that put points on
     its smooth surface; other meshes keep their facets (`u_swept` false). `u_swept` picks the
-    passes' SWEPT variant; the programs have no such uniform."""
+    passes' SWEPT variant and `u_sphere` their QUAD variant; the programs have neither uniform."""
     bound = mesh.bound
     if bound is None or not bound.exact or bound.segment is None:
         return {"u_swept": False}
@@ -128,6 +128,9 @@ def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
         "u_swept_a": tuple(ends[0]),
         "u_swept_b": tuple(ends[1]),
         "u_swept_radius": bound.radius * scale,
+        # A sphere (both ends one point): passes 2 and 3 draw it as one quad (QUAD 1).
+        "u_sphere": bool(np.array_equal(bound.segment[0], bound.segment[1])),
+        "u_swept_local": np.linalg.inv(m[:3, :3]).T.astype("f4").tobytes(),  # column-major
     }
 
 

@@ -18,7 +18,7 @@ from dentdemo.mesh.mesh import Bound, Mesh
 GUTTER = 1.0 / 128.0
 
 # Cube faces as (normal, a, b) with a x b = normal; a runs along +u, b along +v of the face chart.
-_CUBE_FACES = (
+CUBE_FACES = (
     ((1, 0, 0), (0, 0, -1), (0, 1, 0)),
     ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
     ((0, 1, 0), (1, 0, 0), (0, 0, -1)),
@@ -69,7 +69,7 @@ def box(size: tuple[float, float, float], subdivisions: int = 4) -> Mesh:
         "box", subdivisions, lambda n, a, b, s, t: n * half + (s * a + t * b) * half, False
     )
     faces = []
-    for nrm, a, b in _CUBE_FACES:
+    for nrm, a, b in CUBE_FACES:
         nv, av, bv = (np.asarray(x, dtype=np.float64) for x in (nrm, a, b))
         quad = [(nv + s * av + t * bv) * half for s, t in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
         faces += [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]]
@@ -97,7 +97,7 @@ def _cube_atlas(name: str, n: int, place, curved: bool) -> Mesh:
     grid = np.linspace(-1.0, 1.0, n + 1)
     t, s = np.meshgrid(grid, grid, indexing="ij")
     s, t = s.ravel()[:, None], t.ravel()[:, None]
-    for face, (nrm, a, b) in enumerate(_CUBE_FACES):
+    for face, (nrm, a, b) in enumerate(CUBE_FACES):
         nv, av, bv = (np.asarray(x, dtype=np.float64) for x in (nrm, a, b))
         pos = place(nv, av, bv, s, t)
         nr = (

@@ -1,0 +1,19 @@
+#version 330 core
+// Passes 2 and 3 for a built-in sphere (QUAD 1): one quad over the solid's extent in the
+// collision camera instead of its facets; the fragment shader finds where each pixel's view line
+// enters and leaves the exact solid (swept.glsl), so the facets' count changes nothing.
+#include "camera.glsl"
+#include "swept.glsl"
+
+out float gl_ClipDistance[1];  // pass 2 enables one (its near clip is done per fragment here)
+
+void main() {
+    vec2 corner = vec2(gl_VertexID & 1, gl_VertexID >> 1);  // triangle strip, counter-clockwise
+    vec3 ra = u_swept_a - u_eye, rb = u_swept_b - u_eye;
+    vec2 pa = vec2(dot(ra, u_right), dot(ra, u_up)), pb = vec2(dot(rb, u_right), dot(rb, u_up));
+    // Camera metres, grown by a pixel so that every pixel centre the solid covers is inside.
+    vec2 grow = vec2(u_swept_radius) + 2.0 * u_half_extent / vec2(u_resolution);
+    vec2 lo = min(pa, pb) - grow, hi = max(pa, pb) + grow;
+    gl_Position = vec4(clamp(mix(lo, hi, corner) / u_half_extent, -1.0, 1.0), 0.0, 1.0);
+    gl_ClipDistance[0] = 1.0;
+}

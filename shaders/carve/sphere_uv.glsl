@@ -1,0 +1,19 @@
+// The surface-map address of a point on a built-in sphere (mesh/primitives.py, sphere: a
+// cube-sphere with the equal-angle warp, one chart per cube face in a 3 x 2 atlas), worked out
+// from the point itself: passes drawn as one quad (QUAD 1) have no facet to interpolate it from.
+// CUBE_FACE_N, _A, _B (vec3[6]: each face's normal and its s and t axes) and ATLAS_GUTTER come
+// from primitives.py as defines.
+uniform mat3 u_swept_local;  // local from world, for a direction (the body's pose inverted)
+
+vec2 sphere_uv(vec3 world) {
+    vec3 q = u_swept_local * (world - u_swept_a);
+    vec3 m = abs(q);
+    int face = m.x >= m.y && m.x >= m.z ? (q.x > 0.0 ? 0 : 1)
+             : m.y >= m.z ? (q.y > 0.0 ? 2 : 3) : (q.z > 0.0 ? 4 : 5);
+    vec3 n = CUBE_FACE_N[face], a = CUBE_FACE_A[face], b = CUBE_FACE_B[face];
+    float qn = dot(q, n);
+    vec2 st = vec2(atan(dot(q, a) / qn), atan(dot(q, b) / qn)) / 0.7853981633974483;
+    vec2 cell = vec2(float(face % 3) / 3.0, float(face / 3) / 2.0) + ATLAS_GUTTER;
+    vec2 span = vec2(1.0 / 3.0, 0.5) - 2.0 * ATLAS_GUTTER;
+    return cell + (st + 1.0) * 0.5 * span;
+}
