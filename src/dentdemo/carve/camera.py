@@ -120,6 +120,7 @@ def collision_camera(
     loose: bool = False,
     exact_lists: bool = True,
     advance: float = 0.0,
+    tool_list: bool = True,
 ) -> CollisionCamera | None:
     """The camera for carving `target` by `tool` (already advanced by the dent depth) at `contact`.
 
@@ -127,6 +128,7 @@ def collision_camera(
     instead of the footprint (for tests of the footprint bound only). `exact_lists` False makes
     the passes' triangle lists whole clusters (less CPU, more triangles for the GPU to clip).
     `advance`: how far the tool was moved along the press from first touch, metres.
+    `tool_list` False: pass 3 draws the tool without a triangle list (a sphere as one quad).
     """
     model = np.asarray(target.model, dtype=np.float64)
     linear = model[:3, :3]
@@ -197,9 +199,11 @@ def collision_camera(
     # the rim): a front face nearer than that is nearer than every target surface pass 2 keeps,
     # so leaving it out drops nothing that pass 2 or 4 would test against it.
     (texels,) = target_tris.meeting_slabs(view, [(gather[0] - ring, gather[1] + ring)], exact_lists)
-    (tool_view,) = tool_tris.meeting_slabs(
-        view, [(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf)], exact_lists
-    )
+    tool_view = np.zeros(0, dtype=np.int64)
+    if tool_list:
+        (tool_view,) = tool_tris.meeting_slabs(
+            view, [(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf)], exact_lists
+        )
     # An open body (a plate) has material on one side only: an open tool pushes only with faces
     # turned away from the view, an open target takes dents only in faces turned towards it.
     if not tool_tris.solid and not tool_tris.faces_away(tool_view):

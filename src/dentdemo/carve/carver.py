@@ -20,6 +20,7 @@ from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
     camera_uniforms,
     clip_uniforms,
+    is_sphere,
     model_uniforms,
     rebuild_normals,
     swept_uniforms,
@@ -155,9 +156,7 @@ def _sphere_atlas() -> dict[str, str]:
 
     def table(k: int) -> str:
         return (
-            "vec3[6]("
-            + ", ".join(f"vec3{tuple(float(x) for x in f[k])}" for f in CUBE_FACES)
-            + ")"
+            "vec3[6](" + ", ".join(f"vec3{tuple(float(x) for x in f[k])}" for f in CUBE_FACES) + ")"
         )
 
     return {
@@ -380,6 +379,7 @@ class Carver:
             loose=self.loose_camera,
             exact_lists=self.exact_lists,
             advance=depth,
+            tool_list=not (self.sphere_quads and is_sphere(tool.gpu_mesh.mesh)),
         )
         if camera is None:
             return None

@@ -122,16 +122,28 @@ def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
         return {"u_swept": False}
     m = np.asarray(model, dtype=np.float64)
     ends = bound.segment @ m[:3, :3].T + m[:3, 3]
-    scale = float(np.linalg.norm(m[:3, :3], ord=2))
+    # The solid's radius scales with the pose's largest column (a rotation times a scale).
+    scale = float(np.sqrt((m[:3, :3] ** 2).sum(axis=0).max()))
     return {
         "u_swept": True,
         "u_swept_a": tuple(ends[0]),
         "u_swept_b": tuple(ends[1]),
         "u_swept_radius": bound.radius * scale,
         # A sphere (both ends one point): passes 2 and 3 draw it as one quad (QUAD 1).
-        "u_sphere": bool(np.array_equal(bound.segment[0], bound.segment[1])),
+        "u_sphere": is_sphere(mesh),
         "u_swept_local": np.linalg.inv(m[:3, :3]).T.astype("f4").tobytes(),  # column-major
     }
+
+
+def is_sphere(mesh: Mesh) -> bool:
+    """A built-in sphere: its own solid is a sphere (both ends of its segment one point)."""
+    bound = mesh.bound
+    return (
+        bound is not None
+        and bound.exact
+        and bound.segment is not None
+        and bool(np.array_equal(bound.segment[0], bound.segment[1]))
+    )
 
 
 def model_uniforms(model: NDArray[np.float64]) -> dict[str, object]:
