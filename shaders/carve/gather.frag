@@ -76,6 +76,7 @@ float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float a0) {
     bool seen;
     bool on_hi = beyond(rel, n, depth, stretch, hi, f_hi, seen);
     if (!seen) return a0;  // the camera does not show where it goes: the view-line estimate
+    if (on_hi && abs(f_hi) <= EXIT_SETTLED_METRES) return a0;  // the tool's back is flat here
     for (int k = 0; k < 4 && on_hi && f_hi < 0.0; ++k) {  // still inside: look further in
         float f_more;
         bool more = beyond(rel, n, depth, stretch, 2.0 * hi, f_more, seen);
@@ -146,9 +147,10 @@ void main() {
     bool plane = SWEPT == 0 && abs(face_s) > 1e-6 * length(face);
     vec2 pixel_metres = 2.0 * u_half_extent / vec2(u_resolution);
     ivec2 base = ivec2(floor(p));
+    ivec2 first = ivec2(floor(p + 0.5)) - base;  // the nearest of the four first: it mostly sees
     bool seen = false;
-    for (int k = 0; k < 4; ++k) {
-        ivec2 q = base + ivec2(k & 1, k >> 1);
+    for (int k = 0; k < 4 && !seen; ++k) {
+        ivec2 q = base + (first ^ ivec2(k & 1, k >> 1));
         if (!inside_camera(q)) continue;
         vec4 address = texelFetch(u_address, q + u_tile, 0);
         float own = depth;

@@ -236,7 +236,7 @@ def _normal_exit(
     lo, f_lo, hi = np.zeros_like(a0), -a0 / stretch, a0.copy()
     f_hi, on_hi, seen = beyond(hi, every)
     a = a0.copy()
-    active = seen.copy()
+    active = seen & ~(on_hi & (np.abs(f_hi) <= EXIT_SETTLED_METRES))  # flat: the estimate holds
     for _ in range(4):  # still inside: look further in
         i = np.flatnonzero(active & on_hi & (f_hi < 0.0))
         if len(i) == 0:
