@@ -46,8 +46,8 @@ def test_disjoint_hits_in_a_batch_equal_one_by_one(gl, max_resolution):
         serial_plate, serial_balls = _scene(bodies, len(SPOTS))
         batch = _presses(batched_plate, batched_balls, SPOTS, depths)
         batches = list(carver.scratch.pack([carver.plan(*press) for press in batch]))
-        if max_resolution == 40:  # the atlas holds two cameras: the batch is split
-            assert len(batches) >= 3
+        if max_resolution == 40:  # a 128 x 64 atlas: the twelve cameras do not fit at once
+            assert len(batches) >= 2
         else:
             assert len(batches) == 1 and len(batches[0]) == 2 * len(SPOTS)
         carver.carve_many(batch)

@@ -17,8 +17,12 @@
 #include "swept.glsl"
 #include "chart.glsl"
 
+#ifndef EXIT
+#define EXIT 1
+#endif
+
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
-uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front)
+uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front), LINEAR
 uniform float u_min_height;      // -max_dent_depth of the target, metres
 uniform float u_ceiling;         // no texel of the target is higher than this, metres
 uniform float u_pixel_diagonal;  // a camera pixel's diagonal, metres
@@ -34,20 +38,20 @@ bool tool_sample(ivec2 pixel, out float depth) {
     return tool.g > 0.5;
 }
 
-// The tool's depth at continuous pixel position p: bilinear where the four pixels around p all see
-// the tool, else the pixel that holds p. The four are fetched and blended here, by p's offset from
-// them alone: the same bits wherever the camera's tile lies in the atlas.
+// The tool's depth at continuous pixel position p: bilinear, by the sampler, where the four pixels
+// around p all see the tool (their filtered coverage is 1; pixels without the tool hold 0 in both
+// channels, so depth / coverage is the blend of those that have it), else the pixel that holds p.
+// p is rounded to 1/TOOL_SUBPIXELS of a pixel first (the filter's own weight precision): with the
+// atlas a power of two wide and high, the sampler then sees the same offset from the four pixels
+// wherever the camera's tile lies, so a hit gives the same bits in any tile.
 bool tool_depth_at(vec2 p, out float depth) {
     ivec2 base = ivec2(floor(p));
     if (all(greaterThanEqual(base, ivec2(0))) && all(lessThan(base + 1, u_resolution))) {
-        ivec2 at = base + u_tile;
-        vec2 d00 = texelFetch(u_tool_depth, at, 0).rg;
-        vec2 d10 = texelFetch(u_tool_depth, at + ivec2(1, 0), 0).rg;
-        vec2 d01 = texelFetch(u_tool_depth, at + ivec2(0, 1), 0).rg;
-        vec2 d11 = texelFetch(u_tool_depth, at + ivec2(1, 1), 0).rg;
-        if (min(min(d00.g, d10.g), min(d01.g, d11.g)) > 0.5) {
-            vec2 f = p - vec2(base);
-            depth = mix(mix(d00.r, d10.r, f.x), mix(d01.r, d11.r, f.x), f.y);
+        vec2 q = floor(p * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS;
+        vec2 at = (q + 0.5 + vec2(u_tile)) / vec2(textureSize(u_tool_depth, 0));
+        vec2 tool = texture(u_tool_depth, at).rg;
+        if (tool.g >= FULL_COVERAGE) {
+            depth = tool.r / tool.g;
             return true;
         }
     }
@@ -171,7 +175,10 @@ void main() {
     float stretch = 1.0 / max(cos_view, MIN_COS);
     float inward = (tool - depth) * stretch;
     // Along the normal, not the view: the moved point sees another pixel (none when n = -forward).
+#if EXIT  // some normal of the footprint is not the press direction (a variant: a software
+          // rasteriser runs an if's body for every fragment, so square-on presses leave it out)
     if (inward > 0.0 && cos_view < 1.0 - 1e-6) inward = normal_exit(rel, n, depth, stretch, inward);
+#endif
     float h = -inward;
     if (!(h < u_ceiling)) discard;  // the tool does not reach this texel
     f_height = max(h, u_min_height);

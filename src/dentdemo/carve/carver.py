@@ -71,6 +71,9 @@ class CarveJob:
     #: and with the tool's (made once per hit).
     target_uniforms: dict[str, object]
     tool_uniforms: dict[str, object]
+    #: Whether some normal of the texels pass 4 draws is not the press direction: then pass 4
+    #: finds each texel's exit from the swept solid along its normal (its EXIT variant).
+    oblique: bool = True
     #: The camera's lower-left pixel in the scratch atlas (set when its batch is packed).
     tile: tuple[int, int] = (0, 0)
 
@@ -106,7 +109,9 @@ class _Scratch:
         self.tool_depth = ctx.texture(size, 4, dtype="f4")
         self.depth = ctx.depth_texture(size)
         self.address.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.tool_depth.filter = (moderngl.NEAREST, moderngl.NEAREST)  # read by texelFetch
+        # Pass 4 interpolates the tool's depth between pixels with the sampler (within a tile:
+        # it blends only where the four pixels around a point are the tile's own).
+        self.tool_depth.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.address_fbo = ctx.framebuffer([self.address], self.depth)
         self.peel_fbo = ctx.framebuffer([self.tool_depth], self.depth)
 
@@ -150,6 +155,21 @@ class _Scratch:
         return placed, (x, y, shelf)
 
 
+def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
+    """Whether any vertex normal of the triangles pass 4 draws (or a swept solid's surface) is
+    not the press direction reversed, to float rounding."""
+    mesh = target.gpu_mesh.mesh
+    if mesh.bound is not None and mesh.bound.exact and mesh.bound.segment is not None:
+        return True  # a sphere or capsule's own normals
+    which = np.unique(mesh.indices[camera.target_texels].ravel())
+    if len(which) == 0:
+        return False
+    m = np.asarray(target.model, dtype=np.float64)[:3, :3]
+    normals = mesh.normals[which].astype(np.float64) @ np.linalg.inv(m)  # world, by rows
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
+
+
 def _sphere_atlas() -> dict[str, str]:
     """The built-in sphere's atlas (mesh/primitives.py) as defines for sphere_uv.glsl."""
     from dentdemo.mesh.primitives import CUBE_FACES, GUTTER
@@ -190,8 +210,9 @@ class Carver:
         self.gl = gl
         self.max_resolution = max_resolution
         #: Two cameras of the largest resolution side by side (the memory of one hit's two
-        #: directions); many small ones.
-        self.scratch = _Scratch(gl.ctx, (2 * max_resolution + 2, max_resolution + 1))
+        #: directions), or many small ones; a power of two each way (pass 4's sampling).
+        width = 1 << (2 * max_resolution + 1).bit_length()
+        self.scratch = _Scratch(gl.ctx, (width, width // 2))
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
         #: is a sphere drawn as one quad: QUAD).
         self._surface = {
@@ -397,6 +418,7 @@ class Carver:
                 "u_advance": depth,
             },
             {**view, **model_uniforms(advanced), **swept_uniforms(tool.gpu_mesh.mesh, advanced)},
+            oblique=_oblique(target, camera),
         )
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
@@ -438,7 +460,7 @@ class Carver:
         for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
             if len(triangles) == 0:
                 continue
-            gather = self._texel["gather", gutter, bool(uniforms["u_swept"])]
+            gather = self._texel["gather", gutter, bool(uniforms["u_swept"]), job.oblique]
             gather.run(
                 self.gl.ctx,
                 maps.height_fbo,

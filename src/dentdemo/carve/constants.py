@@ -21,6 +21,9 @@ FRONT_TOLERANCE = 1e-6
 #: normal (1/3 at 30 degrees).
 EXIT_STEPS = 8
 EXIT_SETTLED_METRES = 1e-7
+#: Pass 4 rounds a position to this fraction of a camera pixel before the sampler blends the
+#: tool's depth there (as fine as the filter's own weights): the same bits in any atlas tile.
+TOOL_SUBPIXELS = 256.0
 #: Grazing clamp: the depth-to-height stretch 1/cos(normal, press direction) is capped at 1/MIN_COS.
 MIN_COS = 0.2
 #: A gutter texel (outside every chart) takes a value when its centre lies within this many texels
@@ -48,6 +51,7 @@ def shader_defines(**extra: object) -> dict[str, object]:
         "FULL_COVERAGE": repr(float(FULL_COVERAGE)),
         "MIN_COS": repr(float(MIN_COS)),
         "EXIT_STEPS": str(EXIT_STEPS),
+        "TOOL_SUBPIXELS": repr(float(TOOL_SUBPIXELS)),
         "EXIT_SETTLED_METRES": repr(float(EXIT_SETTLED_METRES)),
         "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),
         "NO_SURFACE": repr(float(NO_SURFACE)),

@@ -23,6 +23,7 @@ from dentdemo.carve.constants import (
     MIN_COS,
     NO_FRONT,
     NO_SURFACE,
+    TOOL_SUBPIXELS,
 )
 from dentdemo.carve.texel_passes import swept_uniforms
 from dentdemo.gl.context import GLContext
@@ -286,7 +287,9 @@ def _tool_depth_at(tool: np.ndarray, px: Array, py: Array, with_camera: bool = F
         return value[:, 0], ok & (value[:, 1] > 0.5)
 
     bx, by = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
-    fx, fy = px - bx, py - by
+    # The offset from the four pixels as gather.frag rounds it (TOOL_SUBPIXELS).
+    fx = np.floor(px * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS - bx
+    fy = np.floor(py * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS - by
     d00, o00 = sample(bx, by)
     d10, o10 = sample(bx + 1, by)
     d01, o01 = sample(bx, by + 1)

@@ -24,30 +24,38 @@ _GATHER = PassState(blend=MIN_BLEND, clip_distances=CLIP_DISTANCES)
 _NORMALS = PassState(clip_distances=CLIP_DISTANCES)
 
 
-def texture_space_passes(gl: GLContext) -> dict[tuple[str, int, bool], Pass]:
-    """Passes 4 and 5 by (name, gutter, swept): each as a chart draw (GUTTER 0) and a gutter draw
-    (GUTTER 1); the gather also for a swept solid's own surface (SWEPT 1; the normal rebuild reads
-    only the map, so it has no such variant). Cached per context."""
+def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
+    """Pass 4 by ("gather", gutter, swept, oblique) and pass 5 by ("normals", gutter, False):
+    each as a chart draw (GUTTER 0) and a gutter draw (GUTTER 1); the gather also for a swept
+    solid's own surface (SWEPT 1) and with or without the exit along each normal (EXIT; the
+    normal rebuild reads only the map, so it has neither variant). Cached per context."""
     key = "carve:texture-space-passes"
     if key in gl.cache:
         return gl.cache[key]
-    passes = {}
+    passes: dict[tuple, Pass] = {}
+    gather = ("u_address", "u_tool_depth", "u_mask")
+    # (name, state, samplers, variants: (swept, oblique)); a swept solid's normals always vary.
+    kinds = (
+        ("gather", _GATHER, gather, ((False, False), (False, True), (True, True))),
+        ("normals", _NORMALS, ("u_height", "u_mask"), ((False, None),)),
+    )
     for gutter in (0, 1):
         geometry = "carve/texel.geom" if gutter else None
-        for name, state, samplers, swepts in (
-            ("gather", _GATHER, ("u_address", "u_tool_depth", "u_mask"), (False, True)),
-            ("normals", _NORMALS, ("u_height", "u_mask"), (False,)),
-        ):
-            for swept in swepts:
+        for name, state, samplers, variants in kinds:
+            for swept, oblique in variants:
+                extra = {} if oblique is None else {"EXIT": int(oblique)}
                 prog = program(
                     gl.cache,
                     gl.ctx,
                     "carve/texel.vert",
                     f"carve/{name}.frag",
                     geometry,
-                    defines=shader_defines(GUTTER=gutter, SWEPT=int(swept)),
+                    defines=shader_defines(GUTTER=gutter, SWEPT=int(swept), **extra),
                 )
-                passes[name, gutter, swept] = Pass(name, prog, state, samplers)
+                variant = (
+                    (name, gutter, swept) if oblique is None else (name, gutter, swept, oblique)
+                )
+                passes[variant] = Pass(name, prog, state, samplers)
     gl.cache[key] = passes
     return passes
 
