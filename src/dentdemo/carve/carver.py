@@ -9,6 +9,7 @@ import contextlib
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field, replace
+from itertools import groupby
 
 import moderngl
 import numpy as np
@@ -289,16 +290,14 @@ class Carver:
         scratch = self.scratch
         with self._timed("peel"):
             self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
-            for job in jobs:
-                self._camera_pass("peel", scratch.peel_fbo, job, job.tool)
+            self._camera_passes("peel", scratch.peel_fbo, jobs)
         with self._timed("address"):
             self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), jobs)
-            for job in jobs:
-                self._camera_pass("address", scratch.address_fbo, job, job.target)
+            self._camera_passes("address", scratch.address_fbo, jobs)
         by_map = sorted(jobs, key=lambda job: id(job.target.maps))
         with self._timed("gather"):
-            for job in by_map:
-                self._gather_pass(job)
+            for _, same_map in groupby(by_map, key=lambda job: id(job.target.maps)):
+                self._gather_passes(list(same_map))
         with self._timed("normals"):
             for job in by_map:
                 target = job.target
@@ -326,11 +325,9 @@ class Carver:
         scratch = self.scratch
         with preserved(self.gl.ctx):
             self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
-            for job in jobs:
-                self._camera_pass("peel", scratch.peel_fbo, job, job.tool)
+            self._camera_passes("peel", scratch.peel_fbo, jobs)
             self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), jobs)
-            for job in jobs:
-                self._camera_pass("address", scratch.address_fbo, job, job.target)
+            self._camera_passes("address", scratch.address_fbo, jobs)
         return jobs
 
     def address_texture(self) -> moderngl.Texture:
@@ -422,22 +419,24 @@ class Carver:
         )
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
-    def _camera_pass(
-        self, name: str, fbo: moderngl.Framebuffer, job: CarveJob, body: CarveBody
-    ) -> None:
-        """Pass 2 ("address") or 3 ("peel"): `body` (the target or the tool) drawn by the
-        collision camera into the job's tile of `fbo` (cleared by the batch), sampling its own
-        height map (pass 2 also pass 3's result)."""
-        view = job.viewport
+    def _camera_passes(self, name: str, fbo: moderngl.Framebuffer, jobs: list[CarveJob]) -> None:
+        """Pass 2 ("address": each job's target) or 3 ("peel": its tool) drawn by each job's
+        collision camera into its tile of `fbo` (cleared by the batch), sampling the body's own
+        height map (pass 2 also pass 3's result); the state is applied once per variant."""
         inputs = (self.scratch.tool_depth,) if name == "address" else ()
-        target = body is job.target
-        triangles = job.camera.target_view if target else job.camera.tool_view
-        uniforms = job.target_uniforms if target else job.tool_uniforms
-        quad = self.sphere_quads and bool(uniforms.get("u_sphere"))
-        draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
-        self._surface[name, bool(uniforms["u_swept"]), quad].run(
-            self.gl.ctx, fbo, view, draw, (body.maps.height, *inputs), uniforms
-        )
+        variants: dict[tuple, list[tuple]] = {}
+        for job in jobs:
+            body = job.target if name == "address" else job.tool
+            triangles = job.camera.target_view if name == "address" else job.camera.tool_view
+            uniforms = job.target_uniforms if name == "address" else job.tool_uniforms
+            quad = self.sphere_quads and bool(uniforms.get("u_sphere"))
+            draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
+            item = (job.viewport, draw, (body.maps.height, *inputs), uniforms)
+            variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)
+        for variant, items in variants.items():
+            with self._surface[variant].batch(self.gl.ctx, fbo) as one:
+                for item in items:
+                    one(*item)
 
     def _draw_quad(self, prog: moderngl.Program) -> None:
         """quad.vert's four corners (no vertex data)."""
@@ -446,26 +445,29 @@ class Carver:
         self._quad_vaos[prog.glo].render(moderngl.TRIANGLE_STRIP, vertices=4)
 
     # -- pass 4 --------------------------------------------------------------------------------
-    def _gather_pass(self, job: CarveJob) -> None:
-        maps = job.target.maps
-        cam = job.camera
-        px, py = cam.pixel_metres
-        uniforms = {
-            **job.target_uniforms,
-            **clip_uniforms(cam, maps, cam.slab),
-            "u_min_height": -maps.max_dent_depth,
-            "u_ceiling": maps.max_height,
-            "u_pixel_diagonal": float(np.hypot(px, py)),
-        }
-        for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
-            if len(triangles) == 0:
-                continue
-            gather = self._texel["gather", gutter, bool(uniforms["u_swept"]), job.oblique]
-            gather.run(
-                self.gl.ctx,
-                maps.height_fbo,
-                (0, 0, *maps.size),
-                job.target.gpu_mesh.drawer(triangles, f"texels{gutter}"),
-                (self.scratch.address, self.scratch.tool_depth, maps.mask),
-                uniforms,
-            )
+    def _gather_passes(self, jobs: list[CarveJob]) -> None:
+        """Pass 4 of `jobs`, which all dent one map: its framebuffer bound once, the state
+        applied once per variant."""
+        maps = jobs[0].target.maps
+        textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
+        variants: dict[tuple, list[tuple]] = {}
+        for job in jobs:
+            cam = job.camera
+            px, py = cam.pixel_metres
+            uniforms = {
+                **job.target_uniforms,
+                **clip_uniforms(cam, maps, cam.slab),
+                "u_min_height": -maps.max_dent_depth,
+                "u_ceiling": maps.max_height,
+                "u_pixel_diagonal": float(np.hypot(px, py)),
+            }
+            for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
+                if len(triangles) == 0:
+                    continue
+                draw = job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
+                key = ("gather", gutter, bool(uniforms["u_swept"]), job.oblique)
+                variants.setdefault(key, []).append((draw, uniforms))
+        for key, items in variants.items():
+            with self._texel[key].batch(self.gl.ctx, maps.height_fbo) as one:
+                for draw, uniforms in items:
+                    one((0, 0, *maps.size), draw, textures, uniforms)

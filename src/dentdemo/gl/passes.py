@@ -155,6 +155,9 @@ def _set_blend(blend: Blend) -> None:
     gl.glBlendEquationSeparate(blend.equation_rgb, blend.equation_alpha)
 
 
+#: One draw of a pass in a batch: (viewport, draw, textures, uniforms), as `Pass.run` takes them.
+Draw = Callable[..., None]
+
 #: A texture a pass samples, alone (sampled through its own filter and wrap: any sampler object
 #: on its unit is unbound) or with the sampler object to sample it through.
 Sampled = moderngl.Texture | tuple[moderngl.Texture, moderngl.Sampler]
@@ -180,15 +183,31 @@ class Pass:
         textures: Sequence[Sampled] = (),
         uniforms: Mapping[str, object] | None = None,
     ) -> None:
-        for unit, (name, sampled) in enumerate(zip(self.samplers, textures, strict=True)):
-            bind(ctx, sampled, unit)
-            set_uniform(self.program, name, unit)
-        for name, value in (uniforms or {}).items():
-            set_uniform(self.program, name, value)
-        fbo.use()
-        ctx.viewport = viewport
-        with applied(ctx, self.state):
+        with self.batch(ctx, fbo) as one:
+            one(viewport, draw, textures, uniforms)
+
+    @contextmanager
+    def batch(self, ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> Iterator[Draw]:
+        """The pass run many times into `fbo`, its state applied once: yields
+        `one(viewport, draw, textures, uniforms)`, each call as `run` with those arguments."""
+
+        def one(
+            viewport: tuple[int, int, int, int],
+            draw: Callable[[moderngl.Program], None],
+            textures: Sequence[Sampled] = (),
+            uniforms: Mapping[str, object] | None = None,
+        ) -> None:
+            for unit, (name, sampled) in enumerate(zip(self.samplers, textures, strict=True)):
+                bind(ctx, sampled, unit)
+                set_uniform(self.program, name, unit)
+            for name, value in (uniforms or {}).items():
+                set_uniform(self.program, name, value)
+            ctx.viewport = viewport
             draw(self.program)
+
+        fbo.use()
+        with applied(ctx, self.state):
+            yield one
 
 
 def bind(ctx: moderngl.Context, sampled: Sampled, unit: int) -> None:
