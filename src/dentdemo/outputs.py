@@ -64,14 +64,28 @@ def check_output_file(flag: str, path: Path) -> Path:
     return path
 
 
+#: The longest file name most file systems take, bytes.
+NAME_MAX = 255
+
+
+def temporary_beside(path: Path, suffix: str = ".tmp") -> tuple[int, Path]:
+    """A new, empty, uniquely named hidden file in `path`'s folder (an open descriptor and its
+    path), to write `path` atomically: its name starts with as much of `path`'s name as fits in
+    NAME_MAX bytes beside the random part and `suffix`, so a legal final name never makes an
+    illegal temporary one, and two writers of one name never share a temporary file."""
+    room = NAME_MAX - len(f"..{'x' * 8}{suffix}".encode())
+    stem = path.name.encode()[: max(room, 0)].decode(errors="ignore")
+    fd, name = tempfile.mkstemp(prefix=f".{stem}.", suffix=suffix, dir=path.parent)
+    return fd, Path(name)
+
+
 def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
     """Call `write` on a temporary file beside `path`, then rename it over `path`."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise DentdemoError(f"{path.parent}: cannot create folder ({_why(exc)})") from None
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    tmp = Path(tmp_name)
+    fd, tmp = temporary_beside(path)
     try:
         with os.fdopen(fd, "wb") as handle:
             write(handle)

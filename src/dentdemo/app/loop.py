@@ -5,6 +5,7 @@ window), `--exit-after`, the bench and the tests all run frames through here."""
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,9 +16,10 @@ import numpy as np
 
 from dentdemo import interrupt
 from dentdemo.app.controller import DemoController
+from dentdemo.app.gif import GifStream
 from dentdemo.errors import DentdemoError
 from dentdemo.extras import require_app
-from dentdemo.outputs import write_png
+from dentdemo.outputs import temporary_beside, write_png
 from dentdemo.progress import progress_bar
 
 
@@ -146,14 +148,18 @@ class VideoBackend(OffscreenBackend):
         self._size = size
         self.out = out
         self.fps = fps
-        self._tmp = out.with_name(f".{out.name}.partial{out.suffix}")
-        self._gif: list = []
+        self._gif: GifStream | None = None
         self._writer = None
         try:
             out.parent.mkdir(parents=True, exist_ok=True)
+            fd, self._tmp = temporary_beside(out, out.suffix)
         except OSError as exc:
-            raise DentdemoError(f"--video: cannot create '{out.parent}' ({exc.strerror})") from None
-        if out.suffix.lower() != ".gif":
+            raise DentdemoError(f"--video: cannot create '{out}' ({exc.strerror})") from None
+        if out.suffix.lower() == ".gif":
+            handle = os.fdopen(fd, "wb")
+            self._gif = GifStream(handle, size, round(100.0 / fps))
+        else:
+            os.close(fd)  # ffmpeg writes the file itself
             require_app("--video: an MP4", "imageio_ffmpeg")
             import imageio_ffmpeg
 
@@ -177,24 +183,16 @@ class VideoBackend(OffscreenBackend):
             except OSError as exc:  # ffmpeg went away: say so in one line
                 detail = " ".join(str(exc).split())[:200]
                 raise DentdemoError(f"--video: {self.out}: ffmpeg failed ({detail})") from None
-        else:
-            from PIL import Image
-
-            self._gif.append(Image.fromarray(pixels))
+        elif self._gif is not None:
+            self._gif.add(pixels)  # written now: memory holds one frame
 
     def finish(self) -> None:
         """Close the file and give it its name."""
         if self._writer is not None:
             self._writer.close()
-        elif self._gif:
-            self._gif[0].save(
-                self._tmp,
-                format="GIF",
-                save_all=True,
-                append_images=self._gif[1:],
-                duration=max(round(1000.0 / self.fps), 20),
-                loop=0,
-            )
+        elif self._gif is not None:
+            self._gif.close()
+        os.chmod(self._tmp, 0o644)
         self._tmp.replace(self.out)
 
     def discard(self) -> None:
@@ -203,6 +201,8 @@ class VideoBackend(OffscreenBackend):
                 self._writer.close()
             except Exception:  # noqa: BLE001 - ffmpeg already gone; the file goes anyway
                 pass
+        elif self._gif is not None:
+            self._gif.abort()
         self._tmp.unlink(missing_ok=True)
 
 
