@@ -676,6 +676,9 @@ def flag_cases() -> list[Case]:
         ("eye_is_target", [*RENDER, "--eye", "1", "1", "1", "--target", "1", "1", "1"], ("--eye",)),
         ("quality_ultra", [*RENDER, "--quality", "ultra"], ("--quality", "ultra")),
         ("demo_size_word", ["demo", "--size", "huge"], ("--size", "huge")),
+        ("out_name_too_long", [*RENDER[:-1], "o" * 252 + ".png"], ("--out", "256 bytes")),
+        ("video_name_too_long", [*RENDER, "--video", "v" * 252 + ".gif"], ("--video", "256")),
+        ("out_percent_alone", [*RENDER[:-1], "out/a%.png"], ("--out", "a%.png", "%%")),
     ]
     cases = [Case(f"flags-{name}", "flags", argv, files, reject=frag) for name, argv, frag in table]
     cases += [
@@ -685,6 +688,20 @@ def flag_cases() -> list[Case]:
             [*RENDER, "--out", "out/%02d.png", "--frames", "2"],
             files,
             accept=_wrote("out/01.png"),
+        ),
+        Case(
+            "flags-render_literal_percent_accepted",
+            "flags",
+            [*RENDER[:-1], "out/100%%_x.png"],
+            files,
+            accept=_wrote("out/100%_x.png"),
+        ),
+        Case(
+            "flags-render_pattern_with_literal_percent_accepted",
+            "flags",
+            [*RENDER[:-1], "out/%%%02d.png", "--frames", "2"],
+            files,
+            accept=_wrote("out/%01.png"),
         ),
         Case(
             "flags-demo_screenshot_alone_ends_after_3_s",

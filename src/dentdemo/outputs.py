@@ -24,6 +24,10 @@ if TYPE_CHECKING:  # numpy loads when an array is written: the commands' start s
 SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 
+#: The longest file name most file systems take, bytes.
+NAME_MAX = 255
+
+
 def is_safe_name(name: str) -> bool:
     return bool(SAFE_NAME.fullmatch(name)) and ".." not in name
 
@@ -56,16 +60,18 @@ def check_output_file(flag: str, path: Path) -> Path:
     folder itself; checked before any work."""
     if str(path) == "" or path.name in ("", ".", ".."):
         raise DentdemoError(f"{flag}: '{path}' is not a file name")
+    size = len(path.name.encode())
+    if size > NAME_MAX:
+        raise DentdemoError(
+            f"{flag}: the file name '{path.name[:24]}...{path.name[-8:]}' is {size} bytes long; "
+            f"a file name may have at most {NAME_MAX}"
+        )
     if path.is_dir():
         raise DentdemoError(f"{flag}: '{path}' is a folder, not a file")
     check_output_dir(flag, path.parent)
     if path.exists() and not os.access(path, os.W_OK):
         raise DentdemoError(f"{flag}: '{path}' is not writable")
     return path
-
-
-#: The longest file name most file systems take, bytes.
-NAME_MAX = 255
 
 
 def temporary_beside(path: Path, suffix: str = ".tmp") -> tuple[int, Path]:

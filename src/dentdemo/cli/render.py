@@ -32,7 +32,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--frames", type=int_in(1, 10**7), default=120, help="simulation frames at the scene's dt"
     )
     p.add_argument(
-        "--out", required=True, metavar="PNG", help="output image; %%04d in it writes every frame"
+        "--out",
+        required=True,
+        metavar="PNG",
+        help="output image; %%04d in it writes every frame, %%%% a literal %%",
     )
     p.add_argument("--size", type=size_wxh, default="1280x720", metavar="WxH", help="pixels")
     p.add_argument(
@@ -87,13 +90,16 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def frame_pattern(out: Path) -> bool:
-    """True when `out` names one file per frame (%d-style); a bad pattern is an error."""
-    if "%" not in out.name:
+    """True when `out` names one file per frame (%d-style; %% is a literal %); a bad pattern is
+    an error."""
+    if "%" not in out.name.replace("%%", ""):
         return False
     try:
         out.name % 0
     except (TypeError, ValueError):
-        raise DentdemoError(f"--out: '{out.name}' has a bad % pattern (use %04d)") from None
+        raise DentdemoError(
+            f"--out: '{out.name}' has a bad % pattern (use %04d, and %% for a literal %)"
+        ) from None
     return True
 
 
@@ -103,6 +109,8 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     every = frame_pattern(out)
+    if not every and "%" in out.name:
+        out = out.with_name(out.name % ())  # only %% in it: one file, each %% a literal %
     check_output_file("--out", out.with_name(out.name % 0) if every else out)
     maps_dir = Path(args.maps_dir) if args.maps_dir else None
     if maps_dir is not None:
