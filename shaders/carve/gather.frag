@@ -8,8 +8,8 @@
 // the back of the solid the tool sweeps from first touch. The new height moves the texel's point
 // inwards along its normal until it leaves that solid: the a >= 0 (metres) with
 //     a = (tool depth at the pixel of (point - a normal) - surface depth) / max(cos, MIN_COS)
-// (cos = cos(normal, -forward)), found by fixed-point steps from the pixel of the point itself (one
-// step, exact, when the normal is the press direction). h = -a. It does not depend on the old
+// (cos = cos(normal, -forward)), found by false position from the view-line estimate at the
+// point's own pixel (exact, and no search, when the normal is the press direction). h = -a. It does not depend on the old
 // height, so an identical press writes identical values; blending MIN keeps the deeper of old and
 // new (dents only deepen, presses are idempotent).
 #include "camera.glsl"

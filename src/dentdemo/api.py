@@ -335,7 +335,7 @@ class Carver:
         (the same press twice changes nothing). Nothing is read back. False, with no GPU work,
         when the bodies cannot meet (a tool moving off or along the surface) or the depths are
         not positive."""
-        return self.press_many([(target, tool, contact, depth, tool_depth)])[0]
+        return self._carve([(target, tool, contact, depth, tool_depth)], named=False)[0]
 
     def press_many(self, presses: Sequence[Sequence[object]]) -> list[bool]:
         """Every press of a frame at once: `presses` holds (target, tool, contact, depth) or
@@ -346,6 +346,10 @@ class Carver:
         do not overlap give exactly what pressing them one by one gives. A surface may be the
         target of one press and the tool of another. Returns, for each press, whether its
         bodies could meet."""
+        return self._carve(presses, named=True)
+
+    def _carve(self, presses: Sequence[Sequence[object]], named: bool) -> list[bool]:
+        """press_many(); a bad argument's error starts with `presses[i]: ` when `named`."""
         if isinstance(presses, str | bytes) or not isinstance(presses, Sequence):
             raise ArgumentError(f"presses must be a list of presses, got {type(presses).__name__}")
         checked: list[tuple[DentableSurface, DentableSurface, Contact, float, float]] = []
@@ -357,9 +361,9 @@ class Carver:
                 )
             target, tool, contact, depth, *rest = press
             try:
-                _, depth_m, tool_m = self._arguments(target, tool, contact, depth, *rest)
+                depth_m, tool_m = self._arguments(target, tool, contact, depth, *rest)
             except ArgumentError as exc:
-                if len(presses) == 1:  # press(): its own arguments
+                if not named:  # press(): its own arguments
                     raise
                 raise ArgumentError(f"presses[{index}]: {exc}") from None
             assert isinstance(target, DentableSurface) and isinstance(tool, DentableSurface)
@@ -392,8 +396,8 @@ class Carver:
         contact: object,
         depth: object,
         tool_depth: object = 0.0,
-    ) -> tuple[_Carver, float, float]:
-        """press()'s arguments checked: the carver, then both depths as floats."""
+    ) -> tuple[float, float]:
+        """press()'s arguments checked: both depths as floats."""
         self._live()
         for name, surface in (("target", target), ("tool", tool)):
             if not isinstance(surface, DentableSurface):
@@ -411,7 +415,7 @@ class Carver:
         if not isinstance(contact, Contact):
             raise ArgumentError(f"contact must be a dentdemo.Contact, got {type(contact).__name__}")
         metres = "a finite number of metres >= 0"
-        return self._live(), _real("depth", depth, metres), _real("tool_depth", tool_depth, metres)
+        return _real("depth", depth, metres), _real("tool_depth", tool_depth, metres)
 
 
 def export_gltf(

@@ -49,9 +49,8 @@ class CollisionCamera:
     slab: tuple[float, float]
     #: The target's largest texel side near the contact, metres (margins of pass 5).
     texel_metres: float
-    #: Triangles each pass draws (indices into the meshes): the target's in the view and the
-    #: slab grown by the ring (passes 2, 4 and 5), the tool's in the view (pass 3).
-    target_view: NDArray[np.int64]
+    #: Triangles each pass draws (indices into the meshes): the tool's in the view (pass 3), the
+    #: target's in the view and the slab grown by the ring (passes 2, 4 and 5).
     tool_view: NDArray[np.int64]
     target_texels: NDArray[np.int64]
     #: Those of `target_texels` on a chart border (the gutter draws of passes 4 and 5).
@@ -220,7 +219,6 @@ def collision_camera(
         resolution=(int(cols), int(rows)),
         slab=(gather[0] - near_s, gather[1] - near_s),
         texel_metres=texel,
-        target_view=texels,
         tool_view=tool_view,
         target_texels=texels,
         target_gutter=texels[target.mesh.chart_border()[texels]],

@@ -22,6 +22,7 @@ from dentdemo.carve.texel_passes import (
     camera_uniforms,
     clip_uniforms,
     is_sphere,
+    is_swept,
     model_uniforms,
     rebuild_normals,
     swept_uniforms,
@@ -160,7 +161,7 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     """Whether any vertex normal of the triangles pass 4 draws (or a swept solid's surface) is
     not the press direction reversed, to float rounding."""
     mesh = target.gpu_mesh.mesh
-    if mesh.bound is not None and mesh.bound.exact and mesh.bound.segment is not None:
+    if is_swept(mesh):
         return True  # a sphere or capsule's own normals
     which = np.unique(mesh.indices[camera.target_texels].ravel())
     if len(which) == 0:
@@ -214,6 +215,7 @@ class Carver:
         #: directions), or many small ones; a power of two each way (pass 4's sampling).
         width = 1 << (2 * max_resolution + 1).bit_length()
         self.scratch = _Scratch(gl.ctx, (width, width // 2))
+        atlas = _sphere_atlas()
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
         #: is a sphere drawn as one quad: QUAD).
         self._surface = {
@@ -224,7 +226,7 @@ class Carver:
                     gl.ctx,
                     "carve/quad.vert" if quad else "carve/surface.vert",
                     f"carve/{name}.frag",
-                    defines=shader_defines(SWEPT=int(swept), QUAD=int(quad), **_sphere_atlas()),
+                    defines=shader_defines(SWEPT=int(swept), QUAD=int(quad), **atlas),
                 ),
                 state,
                 samplers,
@@ -287,13 +289,7 @@ class Carver:
         """Passes 3, 2, 4 and 5 of every direction of a batch (pass 2 reads pass 3's front
         faces): one clear of the atlas per camera pass, the gathers and normal rebuilds grouped
         by the map they write."""
-        scratch = self.scratch
-        with self._timed("peel"):
-            self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
-            self._camera_passes("peel", scratch.peel_fbo, jobs)
-        with self._timed("address"):
-            self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), jobs)
-            self._camera_passes("address", scratch.address_fbo, jobs)
+        self._camera_stage(jobs)
         by_map = sorted(jobs, key=lambda job: id(job.target.maps))
         with self._timed("gather"):
             for _, same_map in groupby(by_map, key=lambda job: id(job.target.maps)):
@@ -322,12 +318,8 @@ class Carver:
         """Passes 1-3 only, for the CPU reference path (which then reads their buffers back)."""
         jobs = self.plan(target, tool, contact, target_depth, tool_depth)
         jobs = next(self.scratch.pack([jobs]), []) if jobs else []  # one hit always fits
-        scratch = self.scratch
         with preserved(self.gl.ctx):
-            self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
-            self._camera_passes("peel", scratch.peel_fbo, jobs)
-            self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), jobs)
-            self._camera_passes("address", scratch.address_fbo, jobs)
+            self._camera_stage(jobs)
         return jobs
 
     def address_texture(self) -> moderngl.Texture:
@@ -419,6 +411,17 @@ class Carver:
         )
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
+    def _camera_stage(self, jobs: list[CarveJob]) -> None:
+        """Pass 3, then pass 2 (it reads pass 3's front faces), of every job of a batch, each
+        after one clear of the tiles' bounding box."""
+        scratch = self.scratch
+        with self._timed("peel"):
+            self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
+            self._camera_passes("peel", scratch.peel_fbo, jobs)
+        with self._timed("address"):
+            self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), jobs)
+            self._camera_passes("address", scratch.address_fbo, jobs)
+
     def _camera_passes(self, name: str, fbo: moderngl.Framebuffer, jobs: list[CarveJob]) -> None:
         """Pass 2 ("address": each job's target) or 3 ("peel": its tool) drawn by each job's
         collision camera into its tile of `fbo` (cleared by the batch), sampling the body's own
@@ -427,7 +430,7 @@ class Carver:
         variants: dict[tuple, list[tuple]] = {}
         for job in jobs:
             body = job.target if name == "address" else job.tool
-            triangles = job.camera.target_view if name == "address" else job.camera.tool_view
+            triangles = job.camera.target_texels if name == "address" else job.camera.tool_view
             uniforms = job.target_uniforms if name == "address" else job.tool_uniforms
             quad = self.sphere_quads and bool(uniforms.get("u_sphere"))
             draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)

@@ -15,10 +15,9 @@ NO_FRONT = 1e30
 #: front face at the same pixel: float32 rounding of two depths computed at one pixel centre.
 FRONT_TOLERANCE = 1e-6
 #: Pass 4 finds how far a texel's point moves inwards along its normal to leave the tool's swept
-#: solid by at most this many fixed-point steps (each a look-up of the tool's depth), stopping
-#: once a step changes it by no more than EXIT_SETTLED_METRES. A press along the surface normal
-#: needs none. Each step shrinks the error by about tan^2 of the angle between the press and the
-#: normal (1/3 at 30 degrees).
+#: solid by false position (Illinois) in at most this many steps after the bracket (each a
+#: look-up of the tool's depth), stopping once the moved point lies within EXIT_SETTLED_METRES of
+#: the solid's back. A press along the surface normal needs none.
 EXIT_STEPS = 8
 EXIT_SETTLED_METRES = 1e-7
 #: Pass 4 rounds a position to this fraction of a camera pixel before the sampler blends the

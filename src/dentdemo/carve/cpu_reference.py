@@ -96,7 +96,7 @@ class CpuReference:
         texels = footprint_texels(job.target, cam, cam.slab, mask)
         snap_to_solid(texels, job.target)
         maps = job.target.maps
-        swept = bool(swept_uniforms(job.target.gpu_mesh.mesh, job.target.model)["u_swept"])
+        swept = bool(job.target_uniforms["u_swept"])
         advance = float(job.target_uniforms["u_advance"])  # type: ignore[arg-type]
         height = gather(
             texels, cam, address, tool, maps.max_height, maps.max_dent_depth, advance, swept

@@ -126,7 +126,7 @@ def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
     its smooth surface; other meshes keep their facets (`u_swept` false). `u_swept` picks the
     passes' SWEPT variant and `u_sphere` their QUAD variant; the programs have neither uniform."""
     bound = mesh.bound
-    if bound is None or not bound.exact or bound.segment is None:
+    if bound is None or bound.segment is None or not is_swept(mesh):
         return {"u_swept": False}
     m = np.asarray(model, dtype=np.float64)
     ends = bound.segment @ m[:3, :3].T + m[:3, 3]
@@ -143,15 +143,16 @@ def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
     }
 
 
+def is_swept(mesh: Mesh) -> bool:
+    """A built-in sphere or capsule: its own swept sphere is its surface (the SWEPT variants)."""
+    bound = mesh.bound
+    return bound is not None and bound.exact and bound.segment is not None
+
+
 def is_sphere(mesh: Mesh) -> bool:
     """A built-in sphere: its own solid is a sphere (both ends of its segment one point)."""
-    bound = mesh.bound
-    return (
-        bound is not None
-        and bound.exact
-        and bound.segment is not None
-        and bool(np.array_equal(bound.segment[0], bound.segment[1]))
-    )
+    segment = mesh.bound.segment if is_swept(mesh) and mesh.bound is not None else None
+    return segment is not None and bool(np.array_equal(segment[0], segment[1]))
 
 
 def model_uniforms(model: NDArray[np.float64]) -> dict[str, object]:
