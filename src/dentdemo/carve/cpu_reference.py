@@ -175,7 +175,7 @@ def gather(
     # own (its point, or its triangle's plane at the pixel), by more than the slope over a pixel.
     slope = np.sqrt(np.maximum(1.0 - cos_view**2, 0.0)) / np.maximum(cos_view, MIN_COS)
     tolerance = float(np.hypot(*cam.pixel_metres)) * (1.0 + slope)
-    plane = ~swept & (np.abs(face_s) > 1e-6 * np.linalg.norm(t.face, axis=1))
+    plane = (not swept) & (np.abs(face_s) > 1e-6 * np.linalg.norm(t.face, axis=1))
     face_x, face_y = t.face @ cam.right, t.face @ cam.up
     pitch_x, pitch_y = cam.pixel_metres
     bx, by = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)

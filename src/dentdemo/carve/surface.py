@@ -42,6 +42,41 @@ def map_size_for(mesh: Mesh, texels_per_metre: float, cap: int = MAX_MAP_SIZE) -
     return max(MIN_MAP_SIZE, side)
 
 
+class _IndexStream:
+    """One index buffer that triangle lists are appended to, for many draws a frame.
+
+    Each list (uint32 vertex indices, three a triangle) is written once after the lists
+    before it and drawn from its offset for as long as it is held; a list that no longer fits
+    starts the buffer over with fresh storage (orphaning), so a batch of hits costs one
+    allocation per `capacity` bytes rather than one per draw, and no draw waits on the GPU
+    for an earlier draw's indices (NVIDIA's driver did, orphaning a full-mesh buffer before
+    each of a batch's draws)."""
+
+    def __init__(self, ctx: moderngl.Context, capacity: int) -> None:
+        self.capacity = max(capacity, 1 << 16)  # bytes
+        self.buffer = ctx.buffer(reserve=self.capacity, dynamic=True)
+        self._end = 0  # bytes written since the last orphaning
+        #: id(list) -> (the list, its first index in the buffer); the list is kept so its id
+        #: cannot be reused by another array while the entry lives.
+        self._placed: dict[int, tuple[np.ndarray, int]] = {}
+
+    def place(self, triangles: np.ndarray, indices: np.ndarray) -> int:
+        """The first index of `triangles`' vertex indices in the buffer, written if needed."""
+        held = self._placed.get(id(triangles))
+        if held is not None and held[0] is triangles:
+            return held[1]
+        data = indices[triangles].astype("u4").tobytes()
+        if self._end + len(data) > self.capacity:
+            self.buffer.orphan()
+            self._end = 0
+            self._placed.clear()
+        offset = self._end
+        self.buffer.write(data, offset=offset)
+        self._end += len(data)
+        self._placed[id(triangles)] = (triangles, offset // 4)
+        return offset // 4
+
+
 class GpuMesh:
     """A mesh's vertex and index buffers, shared by every pass that draws it."""
 
@@ -55,10 +90,9 @@ class GpuMesh:
         self.vbo = ctx.buffer(data.tobytes())
         self.ibo = ctx.buffer(mesh.indices.astype("u4").tobytes())
         self._vaos: dict[tuple[int, str], moderngl.VertexArray] = {}
-        #: Index buffers of triangle subsets (one per use, rewritten per hit; see `draw`), and
-        #: the triangle list each holds now.
-        self._subsets: dict[str, moderngl.Buffer] = {}
-        self._held: dict[str, np.ndarray] = {}
+        #: Index buffers of triangle subsets, one per use ("address", "texels0", ...), each a
+        #: stream that lists are appended to (see `draw`).
+        self._subsets: dict[str, _IndexStream] = {}
         self._ctx = ctx
 
     @cached_property
@@ -79,28 +113,23 @@ class GpuMesh:
                 f if n in used else f"{f[0]}x4"
                 for f, n in zip(self._LAYOUT.split(), self._NAMES, strict=True)
             )
-            ibo = self._subsets[subset] if subset else self.ibo
+            ibo = self._subsets[subset].buffer if subset else self.ibo
             self._vaos[key] = self._ctx.vertex_array(prog, [(self.vbo, fmt, *used)], ibo)
         return self._vaos[key]
 
     def draw(self, prog: moderngl.Program, triangles: np.ndarray | None, subset: str) -> None:
         """Draw triangles `triangles` (indices into the mesh's triangles; None: all) with `prog`
-        through the index buffer named `subset`, orphaned and refilled (GPU upload of 12 bytes a
-        triangle, no read) unless it holds that very list already (passes 4 and 5 draw the same
-        triangles)."""
+        through the index stream named `subset` (see `_IndexStream`: a list is uploaded once,
+        12 bytes a triangle, no read, and drawn again from where it lies)."""
         if triangles is None:
             self.vao(prog).render(moderngl.TRIANGLES)
             return
         if len(triangles) == 0:
             return
         if subset not in self._subsets:
-            self._subsets[subset] = self._ctx.buffer(reserve=self.ibo.size, dynamic=True)
-        if self._held.get(subset) is not triangles:
-            buffer = self._subsets[subset]
-            buffer.orphan()
-            buffer.write(self.mesh.indices[triangles].astype("u4").tobytes())
-            self._held[subset] = triangles
-        self.vao(prog, subset).render(moderngl.TRIANGLES, vertices=3 * len(triangles))
+            self._subsets[subset] = _IndexStream(self._ctx, 4 * self.ibo.size)
+        first = self._subsets[subset].place(triangles, self.mesh.indices)
+        self.vao(prog, subset).render(moderngl.TRIANGLES, vertices=3 * len(triangles), first=first)
 
     def drawer(
         self, triangles: np.ndarray | None, subset: str
@@ -113,7 +142,8 @@ class GpuMesh:
         return draw
 
     def release(self) -> None:
-        release(*self._vaos.values(), *self._subsets.values(), self.vbo, self.ibo)
+        release(*self._vaos.values(), *(s.buffer for s in self._subsets.values()))
+        release(self.vbo, self.ibo)
 
 
 @dataclass
