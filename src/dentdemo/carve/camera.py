@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.constants import MIN_COS, RING_TEXELS, SLAB_MARGIN_TEXELS
 from dentdemo.carve.footprint import Overlap, Projected, Rect, overlap
+from dentdemo.carve.linear import inverse3
 from dentdemo.mesh.mesh import Mesh
 
 Vec3 = NDArray[np.float64]
@@ -133,7 +134,7 @@ def collision_camera(
     linear = model[:3, :3]
     forward = _unit(np.asarray(contact.direction, dtype=np.float64))
     point = np.asarray(contact.point, dtype=np.float64)
-    local = np.asarray(np.linalg.solve(linear, point - model[:3, 3]), dtype=np.float64)
+    local = inverse3(linear) @ (point - model[:3, 3])
     surf = target.mesh.frame_near(local)
     dpdu, dpdv = linear @ surf.dpdu, linear @ surf.dpdv  # world metres per uv unit
     width, height = map_size

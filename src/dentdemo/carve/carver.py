@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import BodyPose, CollisionCamera, ContactFrame, collision_camera
 from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
+from dentdemo.carve.linear import inverse3
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
     camera_uniforms,
@@ -167,7 +168,7 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     if len(which) == 0:
         return False
     m = np.asarray(target.model, dtype=np.float64)[:3, :3]
-    normals = mesh.normals[which].astype(np.float64) @ np.linalg.inv(m)  # world, by rows
+    normals = mesh.normals[which].astype(np.float64) @ inverse3(m)  # world, by rows
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
 

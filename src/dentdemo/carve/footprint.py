@@ -206,32 +206,41 @@ class Projected:
 def _faces_extreme(faces: Array, rect: Rect, lowest: bool) -> float | None:
     """Lowest (highest) s of the parts of a few faces (k, 3, 3) whose x, y lie in `rect`."""
     found: list[float] = []
-    for face in faces:
+    for face in faces.tolist():
         poly = _clip_to_rect(face, rect)
-        if len(poly):
-            found.append(float(poly[:, 2].min() if lowest else poly[:, 2].max()))
+        if poly:
+            s = [p[2] for p in poly]
+            found.append(min(s) if lowest else max(s))
     if not found:
         return None
     return min(found) if lowest else max(found)
 
 
-def _clip_to_rect(polygon: Array, rect: Rect) -> Array:
-    """A convex polygon (n, 3) clipped to x0 <= x <= x1, y0 <= y <= y1 (Sutherland-Hodgman)."""
+Point = list[float]
+
+
+def _clip_to_rect(polygon: list[Point], rect: Rect) -> list[Point]:
+    """A convex polygon (its corners' x, y, s) clipped to x0 <= x <= x1, y0 <= y <= y1
+    (Sutherland-Hodgman, on Python floats: a face has a handful of corners)."""
     planes = ((0, rect.x0, 1.0), (0, rect.x1, -1.0), (1, rect.y0, 1.0), (1, rect.y1, -1.0))
-    points = list(polygon)
+    points = polygon
     for axis, value, sign in planes:
-        out = []
+        out: list[Point] = []
+        n = len(points)
         for i, p in enumerate(points):
-            q = points[(i + 1) % len(points)]
+            q = points[(i + 1) % n]
             dp, dq = sign * (p[axis] - value), sign * (q[axis] - value)
             if dp >= 0:
                 out.append(p)
             if (dp >= 0) != (dq >= 0):
-                out.append(p + (q - p) * (dp / (dp - dq)))
+                t = dp / (dp - dq)
+                out.append(
+                    [p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t, p[2] + (q[2] - p[2]) * t]
+                )
         points = out
         if not points:
             break
-    return np.asarray(points).reshape(-1, 3)
+    return points
 
 
 def swept_sphere_slab(segment: Array, radius: float, lo: float, hi: float) -> Rect | None:

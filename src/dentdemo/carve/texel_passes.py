@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera
 from dentdemo.carve.constants import shader_defines
+from dentdemo.carve.linear import inverse3
 from dentdemo.gl.context import GLContext
 from dentdemo.gl.passes import MIN_BLEND, Pass, PassState
 from dentdemo.gl.shaders import program
@@ -139,7 +140,7 @@ def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
         "u_swept_radius": bound.radius * scale,
         # A sphere (both ends one point): passes 2 and 3 draw it as one quad (QUAD 1).
         "u_sphere": is_sphere(mesh),
-        "u_swept_local": np.linalg.inv(m[:3, :3]).T.astype("f4").tobytes(),  # column-major
+        "u_swept_local": inverse3(m[:3, :3]).T.astype("f4").tobytes(),  # column-major
     }
 
 
@@ -157,7 +158,7 @@ def is_sphere(mesh: Mesh) -> bool:
 
 def model_uniforms(model: NDArray[np.float64]) -> dict[str, object]:
     m = np.asarray(model, dtype=np.float64)
-    normal_matrix = np.linalg.inv(m[:3, :3]).T
+    normal_matrix = inverse3(m[:3, :3]).T
     return {
         "u_model": m.T.astype("f4").tobytes(),  # column-major
         "u_normal_matrix": normal_matrix.T.astype("f4").tobytes(),
