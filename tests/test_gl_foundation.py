@@ -192,3 +192,36 @@ def test_glx_backend_without_display_is_one_line(monkeypatch):
         create_headless("glx")
     assert "DISPLAY" in str(info.value) and "libglx-mesa0" in str(info.value)
     assert "\n" not in str(info.value)
+
+
+def test_uniform_declarations_are_read_from_the_source():
+    source = (
+        "#version 330 core\n"
+        "uniform highp vec3 u_a;\n"
+        "  uniform float u_b, u_c[4];\n"
+        "uniform sampler2D u_map;  // a comment\n"
+        "vec3 f(vec3 uniformity) { return uniformity; }\n"
+    )
+    from dentdemo.gl.shaders import uniform_names
+
+    assert uniform_names(source) == ["u_a", "u_b", "u_c", "u_map"]
+
+
+def test_a_uniform_no_shader_declares_raises_in_strict_mode(gl, monkeypatch):
+    from dentdemo.carve.texel_passes import texture_space_passes
+    from dentdemo.gl.shaders import library_uniforms
+
+    normals = texture_space_passes(gl)["normals", 0, False]
+    target = gl.ctx.texture((4, 4), 4)
+    fbo = gl.ctx.framebuffer([target])
+    draw = lambda prog: None  # noqa: E731 (no geometry: only the uniforms are written)
+    # u_map_size is texel.geom's, which this variant lacks: skipped, as a shared dict needs.
+    assert "u_map_size" in library_uniforms() and "u_map_size" not in normals.program
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_size": (4, 4)})
+    # A variant selector is not a uniform.
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_swept": True})
+    with pytest.raises(ShaderError, match="u_map_sise"):
+        normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
+    monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "0")
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
+    release(fbo, target)

@@ -20,6 +20,7 @@ from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defin
 from dentdemo.carve.linear import inverse3
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
+    VARIANT_KEYS,
     camera_uniforms,
     clip_uniforms,
     is_sphere,
@@ -231,6 +232,7 @@ class Carver:
                 ),
                 state,
                 samplers,
+                VARIANT_KEYS,
             )
             for name, (state, samplers) in _SURFACE_PASSES.items()
             for swept, quad in ((False, False), (True, False), (True, True))

@@ -56,7 +56,7 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
                 variant = (
                     (name, gutter, swept) if oblique is None else (name, gutter, swept, oblique)
                 )
-                passes[variant] = Pass(name, prog, state, samplers)
+                passes[variant] = Pass(name, prog, state, samplers, VARIANT_KEYS)
     gl.cache[key] = passes
     return passes
 
@@ -120,6 +120,10 @@ def clip_uniforms(
         "u_clip_half": cam.half_extent,
         "u_slab": slab,
     }
+
+
+#: Keys of the carve's uniform dicts that pick a pass's variant (SWEPT, QUAD) and name no uniform.
+VARIANT_KEYS = frozenset({"u_swept", "u_sphere"})
 
 
 def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:

@@ -173,6 +173,8 @@ class Pass:
     program: moderngl.Program
     state: PassState
     samplers: tuple[str, ...] = ()
+    #: Keys of the uniforms given to `run` that pick the pass's variant and name no uniform.
+    selectors: frozenset[str] = frozenset()
 
     def run(
         self,
@@ -201,7 +203,7 @@ class Pass:
                 bind(ctx, sampled, unit)
                 set_uniform(self.program, name, unit)
             for name, value in (uniforms or {}).items():
-                set_uniform(self.program, name, value)
+                set_uniform(self.program, name, value, self.selectors)
             ctx.viewport = viewport
             draw(self.program)
 

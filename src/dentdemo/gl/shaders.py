@@ -4,6 +4,8 @@ detection, `#line` markers so compile and link errors name the offending file an
 
 from __future__ import annotations
 
+import functools
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -127,13 +129,15 @@ class ShaderLibrary:
             sources["geometry_shader"] = self.expand(geometry, defines)
         try:
             geometry_source = sources.get("geometry_shader")
-            return ctx.program(
+            prog = ctx.program(
                 vertex_shader=sources["vertex_shader"].text,
                 fragment_shader=sources["fragment_shader"].text if fragment else None,
                 geometry_shader=geometry_source.text if geometry_source else None,
             )
         except moderngl.Error as exc:
             raise ShaderError(self._explain(str(exc), sources)) from None
+        prog.extra = _Declared(" + ".join(_short(s.files[0]) for s in sources.values()))
+        return prog
 
     def _explain(self, message: str, sources: dict[str, ExpandedSource]) -> str:
         lines = [ln.strip() for ln in message.splitlines()]
@@ -177,11 +181,58 @@ def program(
     return gl_cache[key]
 
 
-def set_uniform(prog: moderngl.Program, name: str, value: object) -> None:
-    """Set a uniform if the program has it: compilers drop uniforms that a variant or a pass does
-    not use (the normal pass never reads the scatter's height, for one)."""
+#: `uniform [qualifiers] type name[, name2[N]];` declarations (no uniform blocks in our shaders).
+_UNIFORM = re.compile(r"^\s*uniform\s+(?:(?:lowp|mediump|highp)\s+)?\w+\s+([^;{]+);", re.M)
+
+
+def uniform_names(source: str) -> list[str]:
+    """The uniforms a GLSL source declares, whether or not the compiler keeps them."""
+    return [
+        part.split("[")[0].strip()
+        for match in _UNIFORM.finditer(source)
+        for part in match.group(1).split(",")
+    ]
+
+
+@dataclass(frozen=True)
+class _Declared:
+    """Which files a program was made of (kept on the program as `extra`, for messages)."""
+
+    files: str
+
+
+@functools.cache
+def library_uniforms(root: Path | None = None) -> frozenset[str]:
+    """Every uniform some shader file under `root` (default: shaders/) declares."""
+    folder = root or shaders_dir()
+    return frozenset(
+        name
+        for path in sorted(folder.rglob("*"))
+        if path.suffix in {".vert", ".frag", ".geom", ".glsl", ".tesc", ".tese"}
+        for name in uniform_names(path.read_text(encoding="utf-8"))
+    )
+
+
+def strict_uniforms() -> bool:
+    """$DENTDEMO_STRICT_UNIFORMS=1 (the test suite sets it): writing a name that no shader file
+    declares raises instead of being ignored."""
+    return os.environ.get("DENTDEMO_STRICT_UNIFORMS") == "1"
+
+
+def set_uniform(
+    prog: moderngl.Program, name: str, value: object, selectors: frozenset[str] = frozenset()
+) -> None:
+    """Set a uniform if the program has it: a pass's uniforms are shared by its variants and by
+    the passes of one hit, and compilers drop uniforms a variant does not use (the normal pass
+    never reads the scatter's height, for one), so a name this program lacks is skipped.
+    `selectors` are keys that pick a pass's variant rather than name a uniform. Under
+    `strict_uniforms()` a name that no shader file declares at all (a misspelling, a uniform
+    renamed in a shader but not in Python) raises ShaderError."""
     member = prog.get(name, None)  # a dict look-up; `name in prog` walks every member
     if member is None:
+        if strict_uniforms() and name not in selectors and name not in library_uniforms():
+            files = prog.extra.files if isinstance(prog.extra, _Declared) else "a program"
+            raise ShaderError(f"{files}: no shader declares a uniform named '{name}'")
         return
     if not isinstance(member, moderngl.Uniform):
         return
