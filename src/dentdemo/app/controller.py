@@ -96,7 +96,10 @@ class DemoController:
         """Save every body's maps and the physics state (F5, panel "save state")."""
         from dentdemo.app.state import save_state
 
-        return self._with_state(save_state, directory, f"saved to {directory}/")
+        def save(sim: Simulation, path: Path) -> Path:
+            return save_state(sim, path, "save state (F5)")
+
+        return self._with_state(save, directory, f"saved to {directory}/")
 
     def load_state(self, directory: Path = STATE_DIR) -> bool:
         """Resume a saved state (F9, panel "load state"); a bad one changes nothing."""

@@ -160,6 +160,24 @@ class TableReader:
             raise self.fail(key, "must be true or false")
         return value
 
+    def raw(self, key: str) -> Any:
+        """A required key's value as it is (a nested table or list the caller reads)."""
+        self._present(key, None)
+        return self.table[key]
+
+    def table_at(self, key: str) -> TableReader:
+        """A required nested table, read by a reader of its own (`[outer.key]` in messages)."""
+        return TableReader(self.source, f"{self.table_name}.{key}", self.raw(key))
+
+    def items(self, key: str, max_length: int) -> list[Any]:
+        """A required list of at most `max_length` entries, each read by the caller."""
+        value = self.raw(key)
+        if not isinstance(value, list):
+            raise self.fail(key, "must be a list")
+        if len(value) > max_length:
+            raise self.fail(key, f"must hold at most {max_length} entries, holds {len(value)}")
+        return value
+
     def finish(self) -> None:
         """Raise on the first key that no reader asked for."""
         for key in self.table:
