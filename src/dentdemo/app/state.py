@@ -487,7 +487,7 @@ def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> Sa
     each height map read by `read_map`; the first fault is a ConfigError naming state.json, the
     key and the value (or a DentdemoError naming the map file)."""
     source = str(path)
-    top = TableReader(source, "top level", payload)
+    top = TableReader(source, "", payload)
     if top.string("format") != FORMAT:
         raise top.fail("format", f"must be {FORMAT!r}: not a dentdemo state")
     version = top.integer("version", min_value=0, max_value=COUNT_MAX)

@@ -31,11 +31,13 @@ def load_toml(path: Path) -> dict[str, Any]:
 
 
 class TableReader:
-    """Reads typed fields from one TOML table and reports unknown keys."""
+    """Reads typed fields from one TOML table and reports unknown keys; `table_name` "" reads a
+    file's top level."""
 
     def __init__(self, source: str, table_name: str, table: Any) -> None:
         if not isinstance(table, Mapping):
-            raise ConfigError(source, f"[{table_name}]", f"must be a table, got {_show(table)}")
+            where = f"[{table_name}]" if table_name else ""
+            raise ConfigError(source, where, f"must be a table, got {_show(table)}")
         self.source = source
         self.table_name = table_name
         self.table = table
@@ -44,7 +46,12 @@ class TableReader:
     def fail(self, key: str, message: str) -> ConfigError:
         value = self.table.get(key, None)
         shown = f" = {_show(value)}" if key in self.table else ""
-        return ConfigError(self.source, f"[{self.table_name}] key '{key}'{shown}", message)
+        return ConfigError(self.source, f"{self._where}key '{key}'{shown}", message)
+
+    @property
+    def _where(self) -> str:
+        """'[table] ' for messages ('' for a file's top level, named by the file alone)."""
+        return f"[{self.table_name}] " if self.table_name else ""
 
     def has(self, key: str) -> bool:
         return key in self.table
@@ -55,7 +62,7 @@ class TableReader:
         if key in self.table:
             return True
         if default is None:
-            raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
+            raise ConfigError(self.source, self._where.strip(), f"missing key '{key}'")
         return False
 
     def number(
@@ -167,7 +174,8 @@ class TableReader:
 
     def table_at(self, key: str) -> TableReader:
         """A required nested table, read by a reader of its own (`[outer.key]` in messages)."""
-        return TableReader(self.source, f"{self.table_name}.{key}", self.raw(key))
+        name = f"{self.table_name}.{key}" if self.table_name else key
+        return TableReader(self.source, name, self.raw(key))
 
     def items(self, key: str, max_length: int) -> list[Any]:
         """A required list of at most `max_length` entries, each read by the caller."""
