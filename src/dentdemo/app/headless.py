@@ -69,7 +69,8 @@ def render_headless(
         backend = images if clip is None else Tee(images, clip)
         try:
             FrameLoop(app, backend, fixed_dt=True).run(frames=frames, progress=progress)
-            interrupt.check()  # a Ctrl-C during the last frame: the video is not kept
+            if clip is not None:
+                interrupt.check()  # a Ctrl-C during the last frame: the video is not kept
         except BaseException:
             if clip is not None:
                 clip.discard()
