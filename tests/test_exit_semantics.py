@@ -97,7 +97,7 @@ def test_a_run_that_reaches_exit_after_still_exits_0(xvfb, tmp_path):
             "--screenshot",
             str(shot),
             "--exit-after",
-            str(frames / 60),
+            "0.05",  # three 1/60 s frames
         ],  # fmt: skip
         env=env,
         capture_output=True,
