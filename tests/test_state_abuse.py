@@ -76,6 +76,13 @@ def _break(state: dict, folder: Path, how: str) -> None:
         world["time"] = "abc"
     elif how == "time_nan":
         world["time"] = math.nan
+    elif how == "time_huge_int":
+        world["time"] = 10**400
+    elif how == "model_huge_int":
+        state["queue"][0]["model_a"][0][0] = 10**400
+    elif how == "nested_deep":
+        (folder / "state.json").write_text("[" * 100000 + "]" * 100000)
+        raise _Written
     elif how == "time_far":
         world["time"] = 1e300
     elif how == "seed_negative":
@@ -140,6 +147,9 @@ CASES = [
     ("position_inf", ("steel_ball", "'position'", "finite")),
     ("time_text", ("[world] key 'time' = 'abc'", "number")),
     ("time_nan", ("[world] key 'time' = nan", "finite")),
+    ("time_huge_int", ("[world] key 'time' = 1000000000", "finite")),
+    ("model_huge_int", ("[queue[0]] key 'model_a'", "finite")),
+    ("nested_deep", ("not a readable state file (RecursionError)",)),
     ("time_far", ("[world] key 'time' = 1e+300", "step_index x dt")),
     ("seed_negative", ("[world] key 'seed' = -1",)),
     ("ball_count_text", ("key 'ball_count' = 'x'", "integer")),
@@ -168,11 +178,18 @@ CASES = [
 ]
 
 
+class _Written(Exception):
+    """_break wrote state.json itself."""
+
+
 def _broken(saved: Path, tmp_path: Path, how: str) -> Path:
     folder = tmp_path / how
     shutil.copytree(saved, folder)
     state = _state(folder)
-    _break(state, folder, how)
+    try:
+        _break(state, folder, how)
+    except _Written:
+        return folder
     (folder / "state.json").write_text(json.dumps(state))
     return folder
 

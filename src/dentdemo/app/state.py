@@ -285,7 +285,10 @@ def _matrix(r: TableReader, key: str) -> NDArray[np.float64]:
         and all(isinstance(x, int | float) and not isinstance(x, bool) for x in row)
         for row in rows
     )
-    m = np.asarray(rows, dtype=np.float64) if ok else np.zeros((4, 4))
+    try:
+        m = np.asarray(rows, dtype=np.float64) if ok else np.zeros((4, 4))
+    except OverflowError:  # an integer beyond float range
+        ok, m = False, np.zeros((4, 4))
     if not ok or not np.isfinite(m).all() or not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
         raise r.fail(key, "must be a 4x4 model matrix of finite numbers, last row 0 0 0 1")
     if np.abs(m[:3, 3]).max() > REACH:
@@ -564,8 +567,8 @@ def read_state(sim: Simulation, directory: Path) -> SavedState:
         payload = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise DentdemoError(f"{path}: missing; '{directory}' is not a saved state") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise DentdemoError(f"{path}: not a readable state file ({exc})") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise DentdemoError(f"{path}: not a readable state file ({type(exc).__name__})") from None
     return _parse(sim, payload, path, _maps_in(directory))
 
 

@@ -80,7 +80,7 @@ class TableReader:
         value = self.table[key]
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, "must be a number")
-        value = float(value)
+        value = _float(value)
         if not math.isfinite(value):
             raise self.fail(key, "must be finite")
         if min_value is not None and (
@@ -142,7 +142,7 @@ class TableReader:
         for item in value:
             if isinstance(item, bool) or not isinstance(item, int | float):
                 raise self.fail(key, f"must be a list of {length} numbers")
-            if not math.isfinite(float(item)):
+            if not math.isfinite(_float(item)):
                 raise self.fail(key, "must contain finite numbers only")
             out.append(float(item))
         if max_norm is not None and math.hypot(*out) > max_norm:
@@ -191,6 +191,14 @@ class TableReader:
         for key in self.table:
             if key not in self._used:
                 raise self.fail(key, "unknown key")
+
+
+def _float(value: int | float) -> float:
+    """A number as a float; an integer beyond float range (JSON has no limit) is infinite."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
 
 
 def _show(value: Any) -> str:
