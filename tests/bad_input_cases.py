@@ -165,6 +165,21 @@ def _wrote(path: str) -> Callable[[str, str, Path], None]:
     return check
 
 
+def _state_replaced(folder_name: str) -> Callable[[str, str, Path], None]:
+    """A saved state replaced the earlier one as a whole: only its files, none of the old
+    folder's, and no temporary folder beside it."""
+
+    def check(out: str, err: str, folder: Path) -> None:
+        state = folder / folder_name
+        names = sorted(p.name for p in state.iterdir())
+        assert "state.json" in names and "old.npy" not in names, names
+        assert all(n == "state.json" or n.endswith(".npy") for n in names), names
+        assert json.loads((state / "state.json").read_text())["format"] == "dentdemo-state"
+        assert not [p for p in folder.iterdir() if p.name.startswith(f".{folder_name}.")]
+
+    return check
+
+
 def _rendered_with(backend: str) -> Callable[[str, str, Path], None]:
     def check(out: str, err: str, folder: Path) -> None:
         assert f"GL backend:  {backend}" in out, out
@@ -602,7 +617,13 @@ def materials_cases() -> list[Case]:
 
 
 def flag_cases() -> list[Case]:
-    files = {"s.toml": SCENE, "afile": "x", "sub/keep.txt": "x"}
+    files = {
+        "s.toml": SCENE,
+        "afile": "x",
+        "sub/keep.txt": "x",
+        # What a save killed between its renames leaves: no 'st', the previous state aside.
+        ".st.k2j4x9ab.old/state.json": "{}",
+    }
     table: list[tuple[str, list[str], tuple[str, ...]]] = [
         ("unknown_command", ["fly"], ("fly",)),
         ("unknown_flag", [*RENDER, "--bogus"], ("--bogus",)),
@@ -624,6 +645,13 @@ def flag_cases() -> list[Case]:
         ("maps_dir_is_file", [*RENDER, "--maps-dir", "afile"], ("--maps-dir", "afile")),
         ("save_state_is_file", [*RENDER, "--save-state", "afile"], ("--save-state", "afile")),
         ("load_state_missing", [*RENDER, "--load-state", "nostate"], ("--load-state", "nostate")),
+        ("save_state_is_cwd", [*RENDER, "--save-state", "."], ("--save-state", "'.'")),
+        ("save_state_other_files", [*RENDER, "--save-state", "sub"], ("--save-state", "keep.txt")),
+        (
+            "load_state_after_killed_save",
+            [*RENDER, "--load-state", "st"],
+            ("--load-state", "'st' is missing", ".st.k2j4x9ab.old"),
+        ),
         ("load_state_not_state", [*RENDER, "--load-state", "."], ("state.json",)),
         ("view_five", [*RENDER, "--view", "5"], ("--view", "5")),
         ("render_scene_missing", [*RENDER, "--scene", "nope.toml"], ("nope.toml",)),
@@ -688,6 +716,13 @@ def flag_cases() -> list[Case]:
             [*RENDER, "--out", "out/%02d.png", "--frames", "2"],
             files,
             accept=_wrote("out/01.png"),
+        ),
+        Case(
+            "flags-save_state_replaces_an_earlier_state_whole",
+            "flags",
+            [*RENDER, "--save-state", "prev"],
+            {**files, "prev/state.json": "{}", "prev/old.npy": "x"},
+            accept=_state_replaced("prev"),
         ),
         Case(
             "flags-render_literal_percent_accepted",

@@ -4,10 +4,13 @@ error or Ctrl-C never leaves a half-written file or replaces a good one with a b
 
 from __future__ import annotations
 
+import ctypes
+import errno
 import io
 import json
 import os
 import re
+import shutil
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -74,15 +77,122 @@ def check_output_file(flag: str, path: Path) -> Path:
     return path
 
 
+def _hidden_prefix(path: Path, suffix: str) -> str:
+    """'.NAME.' with as much of `path`'s name as fits in NAME_MAX bytes beside tempfile's 8
+    random characters and `suffix`."""
+    room = NAME_MAX - len(f"..{'x' * 8}{suffix}".encode())
+    stem = path.name.encode()[: max(room, 0)].decode(errors="ignore")
+    return f".{stem}."
+
+
 def temporary_beside(path: Path, suffix: str = ".tmp") -> tuple[int, Path]:
     """A new, empty, uniquely named hidden file in `path`'s folder (an open descriptor and its
     path), to write `path` atomically: its name starts with as much of `path`'s name as fits in
     NAME_MAX bytes beside the random part and `suffix`, so a legal final name never makes an
     illegal temporary one, and two writers of one name never share a temporary file."""
-    room = NAME_MAX - len(f"..{'x' * 8}{suffix}".encode())
-    stem = path.name.encode()[: max(room, 0)].decode(errors="ignore")
-    fd, name = tempfile.mkstemp(prefix=f".{stem}.", suffix=suffix, dir=path.parent)
+    fd, name = tempfile.mkstemp(prefix=_hidden_prefix(path, suffix), suffix=suffix, dir=path.parent)
     return fd, Path(name)
+
+
+#: Suffixes of the folders `write_folder` makes beside its target: the new folder while it is
+#: written, and the previous one while it is set aside (only where no atomic exchange exists).
+NEW_FOLDER, OLD_FOLDER = ".new", ".old"
+
+
+def leftovers_beside(path: Path, suffix: str) -> list[Path]:
+    """Folders `write_folder` left beside `path` with `suffix` (a save killed mid-swap)."""
+    pattern = f"{_hidden_prefix(path, suffix)}*{suffix}"
+    return sorted(p for p in path.absolute().parent.glob(pattern) if p.is_dir())
+
+
+def check_replaceable_dir(flag: str, path: Path, holds: Callable[[str], bool], what: str) -> Path:
+    """`check_output_dir`, and a folder that `write_folder` may replace as a whole: absent,
+    empty, or holding only names for which `holds` is true (`what` names such a folder)."""
+    if path.name in ("", ".", ".."):
+        raise DentdemoError(f"{flag}: '{path}' must name a folder of its own (not . or ..)")
+    check_output_dir(flag, path)
+    if path.is_dir():
+        try:
+            foreign = sorted(name for name in os.listdir(path) if not holds(name))
+        except OSError as exc:
+            raise DentdemoError(f"{flag}: cannot list '{path}' ({_why(exc)})") from None
+        if foreign:
+            raise DentdemoError(
+                f"{flag}: '{path}' holds '{foreign[0]}', which is not part of {what}; "
+                "it is replaced as a whole, so only such a folder (or an empty one) is taken"
+            )
+    return path
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two paths in one step (Linux renameat2 with RENAME_EXCHANGE); False where the
+    system or the file system has no such call."""
+    try:
+        renameat2 = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return False
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p]
+    renameat2.argtypes += [ctypes.c_uint]
+    at_fdcwd, rename_exchange = -100, 2
+    if renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+        return False
+    raise OSError(code, os.strerror(code), str(b))
+
+
+def swap_in(new: Path, path: Path) -> None:
+    """Give the complete folder `new` the name `path`. Where `path` exists, the two are exchanged
+    in one step and the previous folder removed; where the system cannot exchange, the previous
+    folder is renamed aside (`.NAME.*.old`), `new` renamed in, and the previous one removed; a
+    kill between those two renames leaves no `path` but both folders beside it, and a load says
+    so (`leftovers_beside`)."""
+    if not path.exists():
+        new.rename(path)
+        return
+    if _exchange(new, path):
+        shutil.rmtree(new)  # the previous folder, now under the temporary name
+        return
+    old = Path(
+        tempfile.mkdtemp(
+            prefix=_hidden_prefix(path, OLD_FOLDER), suffix=OLD_FOLDER, dir=path.absolute().parent
+        )
+    )
+    os.rmdir(old)  # a unique name for the previous folder
+    path.rename(old)
+    try:
+        new.rename(path)
+    except BaseException:
+        old.rename(path)  # the previous folder back under its name
+        raise
+    shutil.rmtree(old)
+
+
+def write_folder(path: Path, files: dict[str, bytes]) -> Path:
+    """Write `files` (name -> bytes) into a new folder beside `path` and swap it in as a whole
+    (`swap_in`): a kill at any moment leaves the previous folder or the new one, never a mix."""
+    parent = path.absolute().parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DentdemoError(f"{parent}: cannot create folder ({_why(exc)})") from None
+    new = Path(
+        tempfile.mkdtemp(prefix=_hidden_prefix(path, NEW_FOLDER), suffix=NEW_FOLDER, dir=parent)
+    )
+    try:
+        for name, data in files.items():
+            (new / name).write_bytes(data)
+            os.chmod(new / name, 0o644)
+        os.chmod(new, 0o755)
+        swap_in(new, path)
+    except OSError as exc:
+        shutil.rmtree(new, ignore_errors=True)
+        raise DentdemoError(f"{path}: cannot write ({_why(exc)})") from None
+    except BaseException:  # Ctrl-C or a bug: the previous folder stays, no new one is left
+        shutil.rmtree(new, ignore_errors=True)
+        raise
+    return path
 
 
 def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:

@@ -10,6 +10,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
+from dentdemo.app import inputs
 from dentdemo.app.describe import describe
 from dentdemo.app.simulation import Simulation
 from dentdemo.gl.context import GLContext
@@ -90,13 +91,24 @@ class DemoController:
         self.sim.reset()
 
     def set_time_scale(self, scale: float) -> None:
-        self.sim.time_scale = float(np.clip(scale, 0.0, 4.0))
+        """x real time, clamped to inputs.TIME_SCALE; NaN is refused (the scale stays)."""
+        self.sim.time_scale = inputs.clamped(scale, inputs.TIME_SCALE, self.sim.time_scale)
+
+    def set_panel(self, name: str, value: float) -> float:
+        """A typed panel value (ball_radius, throw_speed, plate_side), clamped to the scene
+        files' bounds; NaN is refused. Returns the value kept."""
+        kept = inputs.panel_value(name, value, getattr(self.panel, name))
+        setattr(self.panel, name, kept)
+        return kept
 
     def save_state(self, directory: Path = STATE_DIR) -> bool:
         """Save every body's maps and the physics state (F5, panel "save state")."""
         from dentdemo.app.state import save_state
 
-        return self._with_state(save_state, directory, f"saved to {directory}/")
+        def save(sim: Simulation, path: Path) -> Path:
+            return save_state(sim, path, "save state (F5)")
+
+        return self._with_state(save, directory, f"saved to {directory}/")
 
     def load_state(self, directory: Path = STATE_DIR) -> bool:
         """Resume a saved state (F9, panel "load state"); a bad one changes nothing."""
@@ -136,7 +148,7 @@ class DemoController:
         point = self.ground_point(ndc_x, ndc_y)
         if point is None:
             return None
-        p = self.panel
+        p = inputs.checked(self.panel)
         return self.sim.drop_ball(
             point + [0.0, DROP_HEIGHT, 0.0], (0, 0, 0), p.ball_material, p.ball_radius
         )
@@ -144,7 +156,7 @@ class DemoController:
     def throw_ball(self, ndc_x: float, ndc_y: float, strength: float = 1.0) -> str:
         """Right drag: a ball from the camera along the view ray at the panel's speed."""
         origin, direction = self.camera.ray(ndc_x, ndc_y, self.renderer.aspect)
-        p = self.panel
+        p = inputs.checked(self.panel)
         start = origin + direction * (p.ball_radius * 3 + 0.05)
         speed = p.throw_speed * float(np.clip(strength, 0.2, 3.0))
         return self.sim.drop_ball(start, direction * speed, p.ball_material, p.ball_radius)
@@ -159,7 +171,7 @@ class DemoController:
         t = self.camera.target
         spec = BodySpec(
             id=body_id,
-            shape=Plate(self.panel.plate_side, thickness=0.02),
+            shape=Plate(inputs.checked(self.panel).plate_side, thickness=0.02),
             material=self.materials.get(self.panel.plate_material),
             position=(float(t[0]), 0.02, float(t[2])),
             static=True,

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dentdemo import interrupt
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import create_headless
 from dentdemo.model.materials import load_materials
@@ -68,20 +69,27 @@ def render_headless(
         backend = images if clip is None else Tee(images, clip)
         try:
             FrameLoop(app, backend, fixed_dt=True).run(frames=frames, progress=progress)
+            if clip is not None:
+                interrupt.check()  # a Ctrl-C during the last frame: the video is not kept
         except BaseException:
             if clip is not None:
                 clip.discard()
             raise
         if clip is not None:
             clip.finish()
+        # Each later output is a safe point: a Ctrl-C stops before the next one (those written
+        # stay whole); one during the last output stops nothing.
         if save_state is not None:
             from dentdemo.app.state import save_state as save
 
+            interrupt.check()
             save(app.sim, save_state)
         app.sim.apply_queued()  # what the budget deferred, before the maps are exported
         if maps_dir is not None:
+            interrupt.check()
             app.sim.export_maps(maps_dir)
         if gltf is not None:
+            interrupt.check()
             app.sim.export_gltf(gltf)
         app.close()
     finally:

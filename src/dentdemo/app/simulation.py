@@ -293,6 +293,7 @@ class Simulation:
         self.last_hit = None
         self.stats = SimStats()
         self.ball_count = 0
+        self._time_debt = 0.0
         self.world = build_world(self.scene)
         for spec in self.scene.bodies:
             self._add_render_body(spec)

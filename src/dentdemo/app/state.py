@@ -5,6 +5,9 @@ Resuming continues bit for bit as if the run had never stopped.
 Layout of a state folder:
     state.json          format, version, scene (path, sha256), time, bodies, queue, counters
     <body id>.npy       height map of each dentable body, float32 [v, u], metres
+
+A save writes a new folder beside the old one and swaps it in (outputs.write_folder); a load
+reads and checks everything (`read_state`) before it changes anything (`apply_state`).
 """
 
 from __future__ import annotations
@@ -13,24 +16,52 @@ import dataclasses
 import hashlib
 import io
 import json
+import math
 from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dentdemo import outputs
-from dentdemo.app.simulation import CarveRequest, Simulation, map_side
+from dentdemo.app.simulation import (
+    CARVED_POINTS_KEPT,
+    CarveRequest,
+    SimStats,
+    Simulation,
+    map_side,
+)
 from dentdemo.carve.surface import rebuild_all_normals
-from dentdemo.errors import DentdemoError
+from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model import shapes
-from dentdemo.model.scene import BodySpec
+from dentdemo.model.scene import BOUNDS, SHAPE_KINDS, BodySpec
+from dentdemo.model.shapes import Plane
+from dentdemo.model.validate import TableReader
 from dentdemo.physics.world import Impact, WorldState
 
 FORMAT = "dentdemo-state"
 VERSION = 1
 STATE_FILE = "state.json"
+
+#: Plausibility bounds of a saved run, beyond which a value is damage, not a run: a scene starts
+#: its bodies within BOUNDS.position m and BOUNDS.speed m/s; a thousand times that leaves room
+#: for anything a run reaches, while ODE still steps it without overflow.
+REACH = 1e3 * BOUNDS.position  # m from the origin
+SPEED = 1e3 * max(BOUNDS.speed, BOUNDS.spin)  # m/s, rad/s
+#: How far a saved quaternion's (or normal's) length may be from 1 (ODE keeps it within 1e-15).
+UNIT_TOLERANCE = 1e-6
+#: How far the saved time may be from step_index x dt, relative (float sums of substeps).
+TIME_TOLERANCE = 1e-6
+#: Counters (steps, frames, hits): whole numbers a float64 holds exactly.
+COUNT_MAX = 2**53
+#: ODE's random seed is 32 bits (dRandGetSeed).
+SEED_MAX = 2**32 - 1
+#: Most bodies added while running, and queued carves, a state may hold.
+ENTRIES_MAX = 10**6
 
 
 def _sha256(data: bytes) -> str:
@@ -59,15 +90,6 @@ def _impact_dict(impact: Impact) -> dict[str, Any]:
     return {f.name: _plain(getattr(impact, f.name)) for f in dataclasses.fields(impact)}
 
 
-def _impact(data: dict[str, Any]) -> Impact:
-    fields = dict(data)
-    for name in ("point", "normal", "vel_a", "vel_b"):
-        fields[name] = np.asarray(fields[name], dtype=np.float64)
-    for name in ("pose_a", "pose_b"):
-        fields[name] = tuple(np.asarray(x, dtype=np.float64) for x in fields[name])
-    return Impact(**fields)
-
-
 def _added_body(spec: BodySpec) -> dict[str, Any]:
     """A body added while running (the demo's balls and plates): its spec, material by name."""
     fields = {f.name: _plain(getattr(spec, f.name)) for f in dataclasses.fields(spec)}
@@ -76,30 +98,33 @@ def _added_body(spec: BodySpec) -> dict[str, Any]:
     return fields
 
 
-def _spec(sim: Simulation, entry: dict[str, Any]) -> BodySpec:
-    fields = dict(entry)
-    fields["shape"] = shapes.from_dict(entry["shape"])
-    fields["material"] = sim.materials.get(entry["material"])
-    for key, value in fields.items():
-        if isinstance(value, list):
-            fields[key] = tuple(value)
-    return BodySpec(**fields)
+# -- saving ------------------------------------------------------------------------------------
+def is_state_file(name: str) -> bool:
+    """The files a state folder holds: state.json and the height maps."""
+    return name == STATE_FILE or name.endswith(".npy")
 
 
-def save_state(sim: Simulation, directory: Path) -> Path:
-    """Write the simulation's state into `directory` (the height maps first, state.json last;
-    each file atomically)."""
-    outputs.check_output_dir("--save-state", directory)
+def check_state_dir(flag: str, directory: Path) -> Path:
+    """Where a state can be saved: a new folder, an empty one or an earlier state (it is
+    replaced as a whole); checked before any work."""
+    return outputs.check_replaceable_dir(flag, directory, is_state_file, "a saved state")
+
+
+def _snapshot(sim: Simulation) -> tuple[dict[str, Any], dict[str, bytes], dict[str, np.ndarray]]:
+    """state.json's payload, the .npy files' bytes and the heights they hold, as they are now."""
     scene_ids = {spec.id for spec in sim.scene.bodies}
     world = sim.world.snapshot()
     maps: dict[str, dict[str, Any]] = {}
+    files: dict[str, bytes] = {}
+    heights: dict[str, np.ndarray] = {}
     for body_id, body in sorted(sim.bodies.items()):
         if not body.spec.dentable:
             continue
         height = np.ascontiguousarray(sim.gl.read(body.maps.height)[:, :, 0], dtype=np.float32)
         data = outputs.npy_bytes(height)  # written as is, and hashed
         name = f"{body_id}.npy"
-        outputs.write_bytes(directory / name, data)
+        files[name] = data
+        heights[body_id] = height
         maps[body_id] = {"file": name, "shape": list(height.shape), "sha256": _sha256(data)}
     payload = {
         "format": FORMAT,
@@ -126,13 +151,33 @@ def save_state(sim: Simulation, directory: Path) -> Path:
         "stats": dataclasses.asdict(sim.stats),
         "ball_count": sim.ball_count,
     }
-    return outputs.write_json(directory / STATE_FILE, payload)
+    return payload, files, heights
 
 
-class _Bad(Exception):
-    pass
+def save_state(sim: Simulation, directory: Path, flag: str = "--save-state") -> Path:
+    """Write the simulation's state as the folder `directory`: the height maps and state.json
+    go into a new folder beside it, which then replaces the previous one as a whole
+    (outputs.write_folder), so a kill at any moment leaves the previous state or the new one.
+    The state is first checked as a load checks it: what a load would refuse (NaN above all)
+    is never saved. Returns the path of state.json."""
+    check_state_dir(flag, directory)
+    payload, files, heights = _snapshot(sim)
+    text = json.dumps(payload, indent=2) + "\n"
+
+    def in_memory(
+        r: TableReader, body_id: str, file: str, sha: str, shape: tuple[int, int]
+    ) -> NDArray[np.float32]:
+        return _checked_height(directory / file, heights[body_id])
+
+    try:
+        _parse(sim, json.loads(text), directory / STATE_FILE, in_memory)
+    except DentdemoError as exc:
+        raise DentdemoError(f"{flag}: not saved, a load would refuse it: {exc}") from None
+    files[STATE_FILE] = text.encode("utf-8")
+    return outputs.write_folder(directory, files) / STATE_FILE
 
 
+# -- loading -----------------------------------------------------------------------------------
 def _map_side(sim: Simulation, spec: BodySpec) -> int:
     body = sim.bodies.get(spec.id)
     if body is not None and body.spec == spec:
@@ -140,111 +185,414 @@ def _map_side(sim: Simulation, spec: BodySpec) -> int:
     return map_side(spec, shape_mesh(spec.shape))
 
 
-def _read_state(sim: Simulation, directory: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """state.json and the height maps, every check done before anything is changed."""
+@dataclass(frozen=True)
+class SavedState:
+    """A state folder read and checked in full: what `apply_state` sets, nothing left to fail."""
+
+    world: WorldState
+    #: Bodies added while running, in the order they were added.
+    added: tuple[BodySpec, ...]
+    #: Scene bodies the saved run had lost (non-finite, physics/world.py).
+    removed: tuple[str, ...]
+    #: Each dentable body's height map, float32 [v, u], metres.
+    heights: dict[str, NDArray[np.float32]]
+    queue: tuple[CarveRequest, ...]
+    #: World metres.
+    carved_points: tuple[NDArray[np.float64], ...]
+    stats: SimStats
+    ball_count: int
+
+
+#: Reads one height map: (its entry in `maps`, body id, file name, sha256, shape (v, u)).
+MapReader = Callable[[TableReader, str, str, str, tuple[int, int]], NDArray[np.float32]]
+
+
+def _checked_height(path: Path, height: NDArray[np.float32]) -> NDArray[np.float32]:
+    if not np.isfinite(height).all():
+        raise DentdemoError(f"{path}: holds NaN or infinity")
+    return height
+
+
+def _maps_in(directory: Path) -> MapReader:
+    """Height maps from the files of `directory`. Where a file's bytes differ from state.json's
+    hash, the file is blamed when it is not a complete map of the listed shape (truncated,
+    damaged), and state.json when the file is a complete map (state.json is the stale one)."""
+
+    def read(
+        r: TableReader, body_id: str, file: str, sha: str, shape: tuple[int, int]
+    ) -> NDArray[np.float32]:
+        path = directory / file
+        try:
+            data = path.read_bytes()
+        except FileNotFoundError:
+            raise DentdemoError(f"{path}: missing (state.json lists it)") from None
+        except OSError as exc:
+            raise DentdemoError(f"{path}: cannot read ({exc.strerror})") from None
+        try:
+            height = np.load(io.BytesIO(data), allow_pickle=False)
+        except (ValueError, OSError, EOFError):
+            height = None
+        complete = (
+            isinstance(height, np.ndarray) and height.dtype == np.float32 and height.shape == shape
+        )
+        if _sha256(data) != sha and complete:
+            raise r.fail(
+                "sha256",
+                f"differs from {file}, a complete {shape[1]}x{shape[0]} map: state.json is "
+                f"stale (left by another save) or {file} was replaced",
+            )
+        if _sha256(data) != sha or height is None or not complete:
+            raise DentdemoError(
+                f"{path}: truncated or damaged ({len(data)} bytes, not the float32 "
+                f"{shape[1]}x{shape[0]} map state.json lists)"
+            )
+        return _checked_height(path, height)
+
+    return read
+
+
+def _quaternion(r: TableReader, key: str) -> tuple[float, float, float, float]:
+    """A unit quaternion (w, x, y, z)."""
+    w, x, y, z = r.vector(key, None, 4)
+    length = math.hypot(w, x, y, z)
+    if abs(length - 1.0) > UNIT_TOLERANCE:
+        raise r.fail(key, f"must be a unit quaternion (w, x, y, z); its length is {length:.6g}")
+    return w, x, y, z
+
+
+def _entries(r: TableReader, key: str, names: tuple[str, ...]) -> TableReader:
+    """A list of len(names) values, read as a table of those names (messages name the item)."""
+    value = r.raw(key)
+    if not isinstance(value, list) or len(value) != len(names):
+        raise r.fail(key, f"must be a list [{', '.join(names)}]")
+    return TableReader(r.source, f"{r.table_name}.{key}", dict(zip(names, value, strict=True)))
+
+
+def _pose(r: TableReader, key: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(position m, quaternion w x y z)."""
+    p = _entries(r, key, ("position", "quaternion"))
+    position = p.vector("position", None, 3, REACH, "distance from the origin (m)")
+    return np.asarray(position, dtype=np.float64), np.asarray(_quaternion(p, "quaternion"))
+
+
+def _matrix(r: TableReader, key: str) -> NDArray[np.float64]:
+    """A 4x4 model matrix, finite, last row 0 0 0 1, translation within REACH."""
+    value = r.raw(key)
+    rows = value if isinstance(value, list) and len(value) == 4 else []
+    ok = len(rows) == 4 and all(
+        isinstance(row, list)
+        and len(row) == 4
+        and all(isinstance(x, int | float) and not isinstance(x, bool) for x in row)
+        for row in rows
+    )
+    try:
+        m = np.asarray(rows, dtype=np.float64) if ok else np.zeros((4, 4))
+    except OverflowError:  # an integer beyond float range
+        ok, m = False, np.zeros((4, 4))
+    if not ok or not np.isfinite(m).all() or not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
+        raise r.fail(key, "must be a 4x4 model matrix of finite numbers, last row 0 0 0 1")
+    if np.abs(m[:3, 3]).max() > REACH:
+        raise r.fail(key, f"its translation lies beyond {REACH:g} m")
+    return m
+
+
+def _mass(r: TableReader, key: str) -> float:
+    """kg, > 0; infinite for a static body."""
+    value = r.raw(key)
+    if isinstance(value, float) and value == math.inf:
+        return math.inf
+    return r.positive(key)
+
+
+def _shape(r: TableReader) -> shapes.Shape:
+    """A body's shape as shapes.as_dict wrote it, sizes within the scene files' bounds."""
+    kind = r.string("kind", choices=SHAPE_KINDS)
+    cls: Any = shapes.KINDS[kind]
+    fields: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        if f.name == "size":
+            fields[f.name] = r.vec3(f.name, None)
+            if not all(BOUNDS.size_min <= x <= BOUNDS.size_max for x in fields[f.name]):
+                raise r.fail(
+                    f.name, f"edges must lie in [{BOUNDS.size_min:g}, {BOUNDS.size_max:g}] m"
+                )
+        elif f.name == "path":
+            fields[f.name] = r.string(f.name)
+            if not Path(fields[f.name]).is_file():
+                raise r.fail(f.name, "no such file")
+        elif f.name == "scale":
+            fields[f.name] = r.number(
+                f.name, None, min_value=0.0, min_inclusive=False, max_value=BOUNDS.mesh_scale_max
+            )
+        else:
+            fields[f.name] = r.number(
+                f.name, None, min_value=BOUNDS.size_min, max_value=BOUNDS.size_max
+            )
+    r.finish()
+    try:
+        shape: shapes.Shape = cls(**fields)
+    except ArgumentError as exc:
+        raise r.fail("kind", str(exc)) from None
+    return shape
+
+
+def _added(sim: Simulation, r: TableReader, taken: dict[str, BodySpec]) -> BodySpec:
+    """A body added while running, as _added_body wrote it."""
+    body_id = r.string("id")
+    if not outputs.is_safe_name(body_id) or body_id in taken:
+        raise r.fail("id", "must be a safe file name that no other body has")
+    shape = _shape(r.table_at("shape"))
+    material = sim.materials.get(r.string("material"), r.source, f"[{r.table_name}] key 'material'")
+    static = r.boolean("static", False)
+    if isinstance(shape, Plane) and not static:
+        raise r.fail("static", "a plane is always static")
+    spec = BodySpec(
+        id=body_id,
+        shape=shape,
+        material=material,
+        position=r.vec3("position", None, REACH, "distance from the origin (m)"),
+        orientation=_quaternion(r, "orientation"),
+        velocity=r.vec3("velocity", None, SPEED, "speed (m/s)"),
+        angular_velocity=r.vec3("angular_velocity", None, SPEED, "spin (rad/s)"),
+        static=static,
+        texels_per_metre=r.number(
+            "texels_per_metre", None, min_value=1.0, max_value=BOUNDS.texels_per_metre_max
+        ),
+        dentable=r.boolean("dentable", True),
+        bump_map=r.string("bump_map", ""),
+        bump_height=r.number("bump_height", 0.0, min_value=0.0, max_value=BOUNDS.bump_height_max),
+    )
+    if spec.bump_map and not Path(spec.bump_map).is_file():
+        raise r.fail("bump_map", "no such file")
+    r.finish()
+    try:
+        _map_side(sim, spec)  # its mesh builds (a mesh file loads)
+    except DentdemoError as exc:
+        raise r.fail("shape", str(exc)) from None
+    return spec
+
+
+def _world(sim: Simulation, w: TableReader, specs: dict[str, BodySpec]) -> WorldState:
+    """The physics: the time consistent with the step count; every added body and each scene
+    body once in `order` (a scene body missing from it was lost by the saved run); for each
+    moving body a pose and velocities within the bounds and a unit quaternion."""
+    step_index = w.integer("step_index", min_value=0, max_value=COUNT_MAX)
+    time = w.number("time", None, min_value=0.0)
+    expected = step_index * sim.scene.physics.dt
+    if abs(time - expected) > TIME_TOLERANCE * max(1.0, expected):
+        raise w.fail("time", f"must be step_index x dt = {expected:.9g} s")
+    seed = w.integer("seed", min_value=0, max_value=SEED_MAX)
+    order = w.raw("order")
+    if not isinstance(order, list) or not all(isinstance(x, str) for x in order):
+        raise w.fail("order", "must be a list of body ids")
+    for body_id in order:
+        if body_id not in specs:
+            raise w.fail("order", f"body '{body_id}' is neither in the scene nor added")
+    if len(set(order)) != len(order):
+        twice = next(x for x in order if order.count(x) > 1)
+        raise w.fail("order", f"body '{twice}' is listed twice")
+    scene_ids = {spec.id for spec in sim.scene.bodies}
+    lost = [body_id for body_id in specs if body_id not in order and body_id not in scene_ids]
+    if lost:
+        raise w.fail("order", f"added body '{lost[0]}' is missing from it")
+    moving = [
+        body_id
+        for body_id in order
+        if not specs[body_id].static and not isinstance(specs[body_id].shape, Plane)
+    ]
+    b = w.table_at("bodies")
+    for body_id in b.table:
+        if body_id not in moving:
+            raise b.fail(body_id, "is not a moving body of world.order")
+    bodies: dict[str, tuple[list[float], list[float], list[float], list[float]]] = {}
+    for body_id in moving:
+        e = _entries(b, body_id, ("position", "quaternion", "velocity", "angular_velocity"))
+        bodies[body_id] = (
+            list(e.vector("position", None, 3, REACH, "distance from the origin (m)")),
+            list(_quaternion(e, "quaternion")),
+            list(e.vector("velocity", None, 3, SPEED, "speed (m/s)")),
+            list(e.vector("angular_velocity", None, 3, SPEED, "spin (rad/s)")),
+        )
+    b.finish()
+    w.finish()
+    return WorldState(time, step_index, seed, list(order), bodies)
+
+
+def _impact(r: TableReader, order: list[str]) -> Impact:
+    """A queued impact, as _impact_dict wrote it, between two bodies of the world."""
+
+    def body(key: str) -> str:
+        body_id = r.string(key)
+        if body_id not in order:
+            raise r.fail(key, "is not a body of world.order")
+        return body_id
+
+    def vec(key: str, bound: float, what: str) -> NDArray[np.float64]:
+        return np.asarray(r.vector(key, None, 3, bound, what), dtype=np.float64)
+
+    impact = Impact(
+        step=r.integer("step", min_value=0, max_value=COUNT_MAX),
+        time=r.number("time", None, min_value=0.0),
+        body_a=body("body_a"),
+        body_b=body("body_b"),
+        point=vec("point", REACH, "distance from the origin (m)"),
+        normal=vec("normal", 1.0 + UNIT_TOLERANCE, "length"),
+        depth=r.number("depth", None, min_value=0.0, max_value=BOUNDS.size_max),
+        vel_a=vec("vel_a", SPEED, "speed (m/s)"),
+        vel_b=vec("vel_b", SPEED, "speed (m/s)"),
+        mass_a=_mass(r, "mass_a"),
+        mass_b=_mass(r, "mass_b"),
+        eps_a=r.number("eps_a", None, min_value=0.0, max_value=1.0),
+        eps_b=r.number("eps_b", None, min_value=0.0, max_value=1.0),
+        j=r.number("j", None),
+        j_elastic=r.number("j_elastic", None),
+        pose_a=_pose(r, "pose_a"),
+        pose_b=_pose(r, "pose_b"),
+    )
+    r.finish()
+    return impact
+
+
+def _request(r: TableReader, specs: dict[str, BodySpec], order: list[str]) -> CarveRequest:
+    """A queued carve: the impact, both depths (m, up to each material's deepest dent) and the
+    model matrices at first touch."""
+    impact = _impact(r.table_at("impact"), order)
+
+    def depth(key: str, body_id: str) -> float:
+        deepest = specs[body_id].material.max_dent_depth
+        return r.number(key, None, min_value=0.0, max_value=deepest)
+
+    request = CarveRequest(
+        impact,
+        depth("depth_a", impact.body_a),
+        depth("depth_b", impact.body_b),
+        _matrix(r, "model_a"),
+        _matrix(r, "model_b"),
+    )
+    r.finish()
+    return request
+
+
+def _stats(r: TableReader) -> SimStats:
+    """Counters (whole numbers) and timings (ms), none negative."""
+    values: dict[str, Any] = {}
+    for f in dataclasses.fields(SimStats):
+        if isinstance(f.default, int):
+            values[f.name] = r.integer(f.name, min_value=0, max_value=COUNT_MAX)
+        else:
+            values[f.name] = r.number(f.name, None, min_value=0.0)
+    r.finish()
+    return SimStats(**values)
+
+
+def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> SavedState:
+    """Every key and value of state.json (at `path`) checked against the simulation's scene,
+    each height map read by `read_map`; the first fault is a ConfigError naming state.json, the
+    key and the value (or a DentdemoError naming the map file)."""
+    source = str(path)
+    top = TableReader(source, "", payload)
+    if top.string("format") != FORMAT:
+        raise top.fail("format", f"must be {FORMAT!r}: not a dentdemo state")
+    version = top.integer("version", min_value=0, max_value=COUNT_MAX)
+    if version != VERSION:
+        raise top.fail("version", f"version is {version}; this dentdemo reads {VERSION}")
+    scene = top.table_at("scene")
+    scene.string("file")
+    if scene.string("sha256") != _scene_hash(sim):
+        raise scene.fail(
+            "sha256",
+            f"saved from scene {scene.table['file']}, which differs from {sim.scene.source} "
+            "(sha256 of the file)",
+        )
+    scene.finish()
+    specs = {spec.id: spec for spec in sim.scene.bodies}
+    added = []
+    for i, entry in enumerate(top.items("added_bodies", ENTRIES_MAX)):
+        spec = _added(sim, TableReader(source, f"added_bodies[{i}]", entry), specs)
+        specs[spec.id] = spec
+        added.append(spec)
+    world = _world(sim, top.table_at("world"), specs)
+    m = top.table_at("maps")
+    dentable = [body_id for body_id in world.order if specs[body_id].dentable]
+    for body_id in m.table:
+        if body_id not in dentable:
+            raise m.fail(body_id, "is not a dentable body of world.order")
+    heights = {}
+    for body_id in dentable:
+        r = m.table_at(body_id)
+        file = r.string("file")
+        if file != f"{body_id}.npy":
+            raise r.fail("file", f"must be '{body_id}.npy'")
+        side = _map_side(sim, specs[body_id])
+        if r.raw("shape") != [side, side]:
+            raise r.fail("shape", f"does not fit body '{body_id}' ({side}x{side} texels)")
+        sha = r.string("sha256")
+        r.finish()
+        heights[body_id] = read_map(r, body_id, file, sha, (side, side))
+    m.finish()
+    queue = tuple(
+        _request(TableReader(source, f"queue[{i}]", entry), specs, world.order)
+        for i, entry in enumerate(top.items("queue", ENTRIES_MAX))
+    )
+    points = []
+    for i, point in enumerate(top.items("carved_points", CARVED_POINTS_KEPT)):
+        p = TableReader(source, f"carved_points[{i}]", {"point": point})
+        points.append(np.asarray(p.vector("point", None, 3, REACH, "distance from the origin")))
+    state = SavedState(
+        world=world,
+        added=tuple(added),
+        removed=tuple(spec.id for spec in sim.scene.bodies if spec.id not in world.order),
+        heights=heights,
+        queue=queue,
+        carved_points=tuple(points),
+        stats=_stats(top.table_at("stats")),
+        ball_count=top.integer("ball_count", min_value=0, max_value=COUNT_MAX),
+    )
+    top.finish()
+    return state
+
+
+def read_state(sim: Simulation, directory: Path) -> SavedState:
+    """state.json and the height maps of `directory`, every check done, nothing changed."""
     path = directory / STATE_FILE
     if not directory.is_dir():
+        left = outputs.leftovers_beside(directory, outputs.OLD_FOLDER)
+        if not directory.exists() and left:
+            raise DentdemoError(
+                f"--load-state: '{directory}' is missing: a save was killed while swapping "
+                f"folders; the previous state is '{left[-1]}' (rename it to '{directory.name}')"
+            )
         raise DentdemoError(f"--load-state: '{directory}' is not a folder")
     try:
         payload = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise DentdemoError(f"{path}: missing; '{directory}' is not a saved state") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise DentdemoError(f"{path}: not a readable state file ({exc})") from None
-    try:
-        if not isinstance(payload, dict) or payload.get("format") != FORMAT:
-            raise _Bad(f"format is {payload.get('format')!r}, expected {FORMAT!r}")
-        if payload.get("version") != VERSION:
-            raise _Bad(f"version is {payload.get('version')!r}; this dentdemo reads {VERSION}")
-        scene = payload["scene"]
-        if scene["sha256"] != _scene_hash(sim):
-            raise _Bad(
-                f"saved from scene {scene['file']}, which differs from {sim.scene.source} "
-                "(sha256 of the file)"
-            )
-        heights: dict[str, np.ndarray] = {}
-        added = {entry["id"] for entry in payload["added_bodies"]}
-        # Map side of every body the state can hold: the scene's and the added ones.
-        expected = {spec.id: _map_side(sim, spec) for spec in sim.scene.bodies}
-        for entry in payload["added_bodies"]:
-            if not outputs.is_safe_name(str(entry["id"])) or entry["id"] in expected:
-                raise _Bad(f"added body id {entry['id']!r} is not a safe, new name")
-            try:
-                expected[entry["id"]] = _map_side(sim, _spec(sim, entry))
-            except DentdemoError as exc:
-                raise _Bad(f"added body '{entry['id']}': {exc}") from None
-        for body_id, info in payload["maps"].items():
-            file = directory / info["file"]
-            if Path(info["file"]).name != info["file"] or not outputs.is_safe_name(body_id):
-                raise _Bad(f"map entry '{body_id}' names '{info['file']}'")
-            try:
-                data = file.read_bytes()
-            except OSError as exc:
-                raise _Bad(f"{file.name}: cannot read ({exc.strerror})") from None
-            if _sha256(data) != info["sha256"]:
-                raise _Bad(f"{file.name}: content differs from what was saved (truncated?)")
-            height = np.load(io.BytesIO(data), allow_pickle=False)
-            if height.dtype != np.float32 or list(height.shape) != info["shape"]:
-                raise _Bad(f"{file.name}: {height.dtype} {height.shape}, expected {info['shape']}")
-            if not np.isfinite(height).all():
-                raise _Bad(f"{file.name}: holds NaN or infinity")
-            size = expected.get(body_id)
-            if size is None:
-                raise _Bad(f"map for '{body_id}', a body neither in the scene nor added")
-            if (height.shape[1], height.shape[0]) != (size, size):
-                raise _Bad(f"{file.name}: {height.shape} does not fit body '{body_id}' ({size}²)")
-            heights[body_id] = height
-        world = payload["world"]
-        for body_id in world["order"]:
-            if body_id not in sim.bodies and body_id not in added:
-                raise _Bad(f"body '{body_id}' is not in the scene")
-        for key in ("time", "step_index", "seed", "bodies"):
-            world[key]  # noqa: B018 - a missing key fails here
-    except _Bad as exc:
-        raise DentdemoError(f"{path}: {exc}") from None
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise DentdemoError(f"{path}: malformed state ({type(exc).__name__}: {exc})") from None
-    return payload, heights
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise DentdemoError(f"{path}: not a readable state file ({type(exc).__name__})") from None
+    return _parse(sim, payload, path, _maps_in(directory))
 
 
-def load_state(sim: Simulation, directory: Path) -> None:
-    """Resume from `directory`: bodies, maps (normals rebuilt on the GPU), physics, queue. The
-    simulation is reset to its scene first, so loading in a running demo equals loading in a new
-    process; a bad state raises before anything changes."""
-    payload, heights = _read_state(sim, directory)
+def apply_state(sim: Simulation, state: SavedState) -> None:
+    """Set a checked state: the simulation is reset to its scene first, so loading in a running
+    demo equals loading in a new process."""
     sim.reset()
-    world = payload["world"]
-    keep = set(world["order"])
-    for body_id in [b for b in sim.bodies if b not in keep]:
-        sim.remove_body(body_id)  # removed during the saved run (non-finite)
-    for entry in payload["added_bodies"]:
-        if entry["id"] not in sim.bodies:
-            sim.add_body(_spec(sim, entry))
-    sim.world.restore(
-        WorldState(
-            time=float(world["time"]),
-            step_index=int(world["step_index"]),
-            seed=int(world["seed"]),
-            order=list(world["order"]),
-            bodies={k: tuple(v) for k, v in world["bodies"].items()},
-        )
-    )
-    for body_id, height in heights.items():
+    for body_id in state.removed:
+        sim.remove_body(body_id)  # lost during the saved run (non-finite)
+    for spec in state.added:
+        sim.add_body(spec)
+    sim.world.restore(state.world)
+    for body_id, height in state.heights.items():
         body = sim.bodies[body_id]
         body.maps.height.write(height.tobytes())
         rebuild_all_normals(sim.gl, body.gpu_mesh, body.maps)
-    sim.queue = deque(
-        CarveRequest(
-            _impact(r["impact"]),
-            float(r["depth_a"]),
-            float(r["depth_b"]),
-            np.asarray(r["model_a"], dtype=np.float64),
-            np.asarray(r["model_b"], dtype=np.float64),
-        )
-        for r in payload["queue"]
-    )
+    sim.queue = deque(state.queue)
     sim.carved_points.clear()
-    sim.carved_points.extend(np.asarray(p, dtype=np.float64) for p in payload["carved_points"])
-    for key, value in payload["stats"].items():
-        setattr(sim.stats, key, value)
-    sim.ball_count = int(payload["ball_count"])
+    sim.carved_points.extend(state.carved_points)
+    sim.stats = dataclasses.replace(state.stats)
+    sim.ball_count = state.ball_count
+
+
+def load_state(sim: Simulation, directory: Path) -> None:
+    """Resume from `directory`: bodies, maps (normals rebuilt on the GPU), physics, queue. All or
+    nothing: the folder is read and checked in full (`read_state`) before anything changes."""
+    apply_state(sim, read_state(sim, directory))

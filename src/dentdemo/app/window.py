@@ -14,8 +14,10 @@ from pathlib import Path
 
 import moderngl
 
+from dentdemo.app import inputs
 from dentdemo.app.controller import DemoController
 from dentdemo.app.loop import FrameLoop
+from dentdemo.errors import DentdemoError
 from dentdemo.extras import require_app
 from dentdemo.gl.context import GLContext, create_window
 from dentdemo.gl.library import flush
@@ -50,6 +52,9 @@ class DemoWindow:
         self._last_cursor = (0.0, 0.0)
         self._shots = 0
         self._screenshot_at_end: Path | None = None
+        self._finished = False  # the last frame of an --exit-after run was presented
+        #: The panel's (left, top, width, height) in window pixels, as last drawn.
+        self._panel_rect: tuple[float, float, float, float] | None = None
         self._presented = self._title_at = time.perf_counter()
         self._fps = self._frame_ms = 0.0
         glfw.set_mouse_button_callback(self.window, self._on_button)
@@ -64,7 +69,11 @@ class DemoWindow:
 
     # -- input ---------------------------------------------------------------------------------
     def _ui_wants_mouse(self) -> bool:
-        return bool(self.imgui.get_io().want_capture_mouse)
+        """The panel takes the mouse: imgui says so (from the last frame), or the cursor is on
+        the panel's rectangle (a click can land there before imgui has seen the cursor move)."""
+        x, y = self.glfw.get_cursor_pos(self.window)
+        wants = bool(self.imgui.get_io().want_capture_mouse)
+        return wants or inputs.on_panel(self._panel_rect, x, y)
 
     def _ndc(self, x: float, y: float) -> tuple[float, float]:
         w, h = self.glfw.get_window_size(self.window)
@@ -142,18 +151,24 @@ class DemoWindow:
         # Wide enough for every label beside its control, units included.
         imgui.set_next_window_size((440, 0), imgui.Cond_.first_use_ever)
         imgui.begin("dentdemo")
+        pos, size = imgui.get_window_pos(), imgui.get_window_size()
+        self._panel_rect = (pos.x, pos.y, size.x, size.y)
         imgui.push_item_width(200)  # controls on the left half, labels readable on the right
         names = app.materials.names()
         _, index = imgui.combo("ball material", names.index(p.ball_material), names)
         p.ball_material = names[index]
         # Drags, not sliders: no grab handle over the value (drag sideways, or double-click
         # to type).
-        _, p.ball_radius = imgui.drag_float(
+        changed, radius = imgui.drag_float(
             "ball radius (m)", p.ball_radius, 0.0005, 0.01, 0.15, "%.3f m"
         )
-        _, p.throw_speed = imgui.drag_float(
+        if changed:  # a typed value may lie beyond the drag's range: clamped, NaN refused
+            app.set_panel("ball_radius", radius)
+        changed, speed = imgui.drag_float(
             "throw speed (m/s)", p.throw_speed, 0.05, 0.5, 25.0, "%.1f m/s"
         )
+        if changed:
+            app.set_panel("throw_speed", speed)
         _, index = imgui.combo("new plate material", names.index(p.plate_material), names)
         p.plate_material = names[index]
         if imgui.button("add plate at target"):
@@ -228,15 +243,25 @@ class DemoWindow:
         """The frame loop with this window as its backend. With exit_after, the simulation runs
         at its fixed dt per frame (so the image is deterministic), the window's image is saved
         after that many simulated seconds, every body is written to `gltf` if given, and the
-        window closes."""
+        window closes. A window closed before (Esc) while a screenshot or glTF was due is an
+        error naming what was not written."""
         self._screenshot_at_end = screenshot
         loop = FrameLoop(self.app, self, fixed_dt=exit_after is not None)
         try:
             loop.run(until_time=exit_after)
-            if gltf is not None:
+            early = exit_after is not None and not self._finished
+            if gltf is not None and not early:
                 self.app.sim.export_gltf(gltf)
+            stopped_at = self.app.sim.world.time
         finally:
             self.close()
+        due = (("--screenshot", screenshot), ("--gltf", gltf))
+        missed = [f"{flag} {path}" for flag, path in due if path is not None]
+        if early and missed:
+            raise DentdemoError(
+                f"{missed[0].split()[0]}: the window was closed at t = {stopped_at:.2f} s, "
+                f"before --exit-after {exit_after:g} s; not written: {', '.join(missed)}"
+            )
         return 0
 
     # -- the loop's backend --------------------------------------------------------------------
@@ -272,6 +297,7 @@ class DemoWindow:
         if now - self._title_at > 0.5:
             glfw.set_window_title(self.window, f"dentdemo | {app.stats_line(self._fps)}")
             self._title_at = now
+        self._finished = self._finished or last
         if last and self._screenshot_at_end is not None:
             self.screenshot(self._screenshot_at_end)
             return

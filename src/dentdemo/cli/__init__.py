@@ -51,9 +51,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if handler is None:
             parser.print_help()
             return 2
-        code = handler(args)
-        interrupt.check()  # a Ctrl-C during the last stretch still ends as one
-        return code
+        # Ctrl-C is honoured at the safe points inside the work (each frame, step or press, and
+        # before each output after the last frame); one that comes after the last output was
+        # written stops nothing, and the command reports its outputs and succeeds.
+        return handler(args)
     except ShaderError as exc:  # file and line of each compiler message
         print(str(exc), file=sys.stderr)
         return 1

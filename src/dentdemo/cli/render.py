@@ -127,7 +127,9 @@ def run(args: argparse.Namespace) -> int:
     gltf = check_gltf(args.gltf)
     save_state = Path(args.save_state) if args.save_state else None
     if save_state is not None:
-        check_output_dir("--save-state", save_state)
+        from dentdemo.app.state import check_state_dir
+
+        check_state_dir("--save-state", save_state)
     render_headless(
         Path(args.scene),
         args.materials,

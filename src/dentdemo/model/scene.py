@@ -49,6 +49,8 @@ class Bounds:
     substeps: int = 64
     solver_iterations: int = 1000
     impact_speed_min: float = 100.0  # m/s
+    texels_per_metre_max: float = 16384.0
+    bump_height_max: float = 0.1  # m
 
 
 BOUNDS = Bounds()
@@ -288,11 +290,16 @@ def _body(source: str, index: int, table: Any, materials: MaterialLibrary) -> Bo
         ),
         static=static,
         texels_per_metre=r.number(
-            "texels_per_metre", DEFAULT_TEXELS_PER_METRE, min_value=1.0, max_value=16384.0
+            "texels_per_metre",
+            DEFAULT_TEXELS_PER_METRE,
+            min_value=1.0,
+            max_value=BOUNDS.texels_per_metre_max,
         ),
         dentable=r.boolean("dentable", kind != "plane"),
         bump_map=_bump_path(r, source),
-        bump_height=r.number("bump_height_m", 0.002, min_value=0.0, max_value=0.1),
+        bump_height=r.number(
+            "bump_height_m", 0.002, min_value=0.0, max_value=BOUNDS.bump_height_max
+        ),
     )
     r.finish()
     return spec

@@ -31,11 +31,13 @@ def load_toml(path: Path) -> dict[str, Any]:
 
 
 class TableReader:
-    """Reads typed fields from one TOML table and reports unknown keys."""
+    """Reads typed fields from one TOML table and reports unknown keys; `table_name` "" reads a
+    file's top level."""
 
     def __init__(self, source: str, table_name: str, table: Any) -> None:
         if not isinstance(table, Mapping):
-            raise ConfigError(source, f"[{table_name}]", f"must be a table, got {_show(table)}")
+            where = f"[{table_name}]" if table_name else ""
+            raise ConfigError(source, where, f"must be a table, got {_show(table)}")
         self.source = source
         self.table_name = table_name
         self.table = table
@@ -44,7 +46,12 @@ class TableReader:
     def fail(self, key: str, message: str) -> ConfigError:
         value = self.table.get(key, None)
         shown = f" = {_show(value)}" if key in self.table else ""
-        return ConfigError(self.source, f"[{self.table_name}] key '{key}'{shown}", message)
+        return ConfigError(self.source, f"{self._where}key '{key}'{shown}", message)
+
+    @property
+    def _where(self) -> str:
+        """'[table] ' for messages ('' for a file's top level, named by the file alone)."""
+        return f"[{self.table_name}] " if self.table_name else ""
 
     def has(self, key: str) -> bool:
         return key in self.table
@@ -55,7 +62,7 @@ class TableReader:
         if key in self.table:
             return True
         if default is None:
-            raise ConfigError(self.source, f"[{self.table_name}]", f"missing key '{key}'")
+            raise ConfigError(self.source, self._where.strip(), f"missing key '{key}'")
         return False
 
     def number(
@@ -73,7 +80,7 @@ class TableReader:
         value = self.table[key]
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, "must be a number")
-        value = float(value)
+        value = _float(value)
         if not math.isfinite(value):
             raise self.fail(key, "must be finite")
         if min_value is not None and (
@@ -135,7 +142,7 @@ class TableReader:
         for item in value:
             if isinstance(item, bool) or not isinstance(item, int | float):
                 raise self.fail(key, f"must be a list of {length} numbers")
-            if not math.isfinite(float(item)):
+            if not math.isfinite(_float(item)):
                 raise self.fail(key, "must contain finite numbers only")
             out.append(float(item))
         if max_norm is not None and math.hypot(*out) > max_norm:
@@ -160,11 +167,38 @@ class TableReader:
             raise self.fail(key, "must be true or false")
         return value
 
+    def raw(self, key: str) -> Any:
+        """A required key's value as it is (a nested table or list the caller reads)."""
+        self._present(key, None)
+        return self.table[key]
+
+    def table_at(self, key: str) -> TableReader:
+        """A required nested table, read by a reader of its own (`[outer.key]` in messages)."""
+        name = f"{self.table_name}.{key}" if self.table_name else key
+        return TableReader(self.source, name, self.raw(key))
+
+    def items(self, key: str, max_length: int) -> list[Any]:
+        """A required list of at most `max_length` entries, each read by the caller."""
+        value = self.raw(key)
+        if not isinstance(value, list):
+            raise self.fail(key, "must be a list")
+        if len(value) > max_length:
+            raise self.fail(key, f"must hold at most {max_length} entries, holds {len(value)}")
+        return value
+
     def finish(self) -> None:
         """Raise on the first key that no reader asked for."""
         for key in self.table:
             if key not in self._used:
                 raise self.fail(key, "unknown key")
+
+
+def _float(value: int | float) -> float:
+    """A number as a float; an integer beyond float range (JSON has no limit) is infinite."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
 
 
 def _show(value: Any) -> str:
