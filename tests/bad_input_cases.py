@@ -749,7 +749,9 @@ def flag_cases() -> list[Case]:
         Case(
             "flags-indent_depth_beyond_the_bound_is_clamped",
             "flags",
-            [*INDENT, "--depth", "0.5", "--max-dent-depth", "0.1"],
+            # A 0.5 m block: thicker than the bound (a 2 cm plate would stop the dent at 2 cm).
+            [*INDENT, "--depth", "0.5", "--max-dent-depth", "0.1", "--target", "box"]
+            + ["--target-size", "0.5"],
             files,
             accept=_clamped_press(0.1),
         ),

@@ -235,7 +235,14 @@ def test_no_single_texel_stays_undented_in_a_deep_dent_on_a_bumpy_mesh(
     seen = inside.copy()
     seen[inside] = unoccluded_from_below(point[inside], below, 0.004)
     cos = np.maximum(-(normal @ up), 0.2)  # MIN_COS, docs/carve.md
-    expected = np.maximum(-(top - point[:, 1]) / cos, -max_dent)
+    # No deeper than the mesh is thick under the texel: each vertex's distance along its inward
+    # normal to where that line leaves the mesh (a bump's flank, on this mesh, for some), by
+    # brute force over every triangle, interpolated like the texel's point.
+    thick = np.full(len(positions), np.inf)
+    needed = np.unique(tri[k[seen]])
+    thick[needed] = _exit_distance(positions[needed], -mesh.normals[needed], corners)
+    bound = np.einsum("kj,kj->k", w, thick[tri[k]])
+    expected = np.maximum(-(top - point[:, 1]) / cos, -np.minimum(max_dent, bound))
     got = h[rows, cols]
     undented = seen & ~(got < DENTED)
     err = np.abs(got - expected)[seen]
@@ -246,6 +253,27 @@ def test_no_single_texel_stays_undented_in_a_deep_dent_on_a_bumpy_mesh(
     assert seen.sum() > 2000
     assert undented.sum() == 0, f"{undented.sum()} texels under the slab left undented"
     assert err.max() <= 1e-5
+
+
+def _exit_distance(origin: np.ndarray, direction: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """For each ray, the nearest crossing of any triangle (m, 3, 3) beyond 1e-7 m (Moller-Trumbore
+    against all of them, in chunks)."""
+    d = direction / np.linalg.norm(direction, axis=1, keepdims=True)
+    a, e1, e2 = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    out = np.full(len(origin), np.inf)
+    for lo in range(0, len(origin), 64):
+        o, dd = origin[lo : lo + 64, None, :], d[lo : lo + 64, None, :]
+        p = np.cross(dd, e2[None])
+        det = (e1[None] * p).sum(axis=2)
+        inv = 1.0 / np.where(np.abs(det) > 1e-18, det, np.inf)
+        sv = o - a[None]
+        u = (sv * p).sum(axis=2) * inv
+        q = np.cross(sv, e1[None])
+        v = (dd * q).sum(axis=2) * inv
+        t = (e2[None] * q).sum(axis=2) * inv
+        hit = (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (t > 1e-7)
+        out[lo : lo + 64] = np.where(hit, t, np.inf).min(axis=1)
+    return out
 
 
 # -- 3: the normal rebuild uses each texel's own metric --------------------------------------------

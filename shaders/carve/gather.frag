@@ -181,5 +181,6 @@ void main() {
 #endif
     float h = -inward;
     if (!(h < u_ceiling)) discard;  // the tool does not reach this texel
-    f_height = max(h, u_min_height);
+    // No deeper than the material's bound, nor than the body is thick under the texel.
+    f_height = max(h, max(u_min_height, -texel_thickness()));
 }

@@ -13,10 +13,12 @@ uniform ivec2 u_map_size;   // surface-map texels (columns, rows)
 in vec3 g_world[];
 in vec3 g_normal[];
 in vec2 g_uv[];
+in float g_thickness[];
 
 flat out vec2 t_uv[3];      // triangle corners, texel units
 flat out vec3 t_world[3];   // world metres
 flat out vec3 t_normal[3];  // world, vertex normals
+flat out float t_thickness[3];  // world metres
 
 void main() {
     vec2 size = vec2(u_map_size);
@@ -31,6 +33,7 @@ void main() {
             t_uv[i] = g_uv[i] * size;
             t_world[i] = g_world[i];
             t_normal[i] = g_normal[i];
+            t_thickness[i] = g_thickness[i];
         }
         // The corner's point on the triangle's plane (affine extension), for the clip distances.
         vec2 q = corners[k] - p0;

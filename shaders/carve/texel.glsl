@@ -4,6 +4,8 @@
 flat in vec2 t_uv[3];      // triangle corners, texel units
 flat in vec3 t_world[3];   // world metres
 flat in vec3 t_normal[3];  // world
+flat in float t_thickness[3];  // world metres
+vec3 texel_weights;  // texel_surface's barycentric weights of the texel's point
 
 // Barycentric weights of the point of the triangle nearest to q (texel units); `dist` is the
 // distance to it in texels (0 inside).
@@ -35,14 +37,23 @@ vec3 nearest_barycentric(vec2 q, out float dist) {
 bool texel_surface(out vec3 world, out vec3 normal, out ivec2 source) {
     float dist;
     vec3 b = nearest_barycentric(gl_FragCoord.xy, dist);
+    texel_weights = b;
     world = b.x * t_world[0] + b.y * t_world[1] + b.z * t_world[2];
     normal = normalize(b.x * t_normal[0] + b.y * t_normal[1] + b.z * t_normal[2]);
     source = ivec2(floor(b.x * t_uv[0] + b.y * t_uv[1] + b.z * t_uv[2]));
     return dist <= GUTTER_REACH_TEXELS;
 }
+
+// The body's thickness under the texel's point, world metres (after texel_surface).
+float texel_thickness() {
+    return dot(texel_weights, vec3(t_thickness[0], t_thickness[1], t_thickness[2]));
+}
 #else
 in vec3 v_world;   // world metres, at the texel centre
 in vec3 v_normal;  // world
+in float v_thickness;  // world metres
+
+float texel_thickness() { return v_thickness; }
 
 bool texel_surface(out vec3 world, out vec3 normal, out ivec2 source) {
     world = v_world;

@@ -15,27 +15,33 @@ uniform mat3 u_normal_matrix;  // world from local, for normals
 in vec3 in_position;  // local metres
 in vec3 in_normal;    // local, unit
 in vec2 in_uv;        // the body's surface-map address
+in float in_thickness;  // the body's thickness under the vertex, local metres (pass 4 only)
 
 #if GUTTER
 out vec3 g_world;     // world metres
 out vec3 g_normal;    // world
 out vec2 g_uv;
+out float g_thickness;  // world metres
 #else
 #include "clip.glsl"
 out vec3 v_world;     // world metres
 out vec3 v_normal;    // world
+out float v_thickness;  // world metres
 #endif
 
 void main() {
     vec3 world = (u_model * vec4(in_position, 1.0)).xyz;
     vec3 normal = u_normal_matrix * in_normal;
+    float thickness = in_thickness * length(u_model[0].xyz);  // a pose scales uniformly
 #if GUTTER
     g_world = world;
     g_normal = normal;
     g_uv = in_uv;
+    g_thickness = thickness;
 #else
     v_world = world;
     v_normal = normal;
+    v_thickness = thickness;
     clip_to_footprint(world);
 #endif
     gl_Position = vec4(in_uv * 2.0 - 1.0, 0.0, 1.0);

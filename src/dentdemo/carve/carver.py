@@ -467,6 +467,7 @@ class Carver:
                 "u_ceiling": maps.max_height,
                 "u_pixel_diagonal": float(np.hypot(px, py)),
             }
+            job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
             for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
                 if len(triangles) == 0:
                     continue

@@ -27,6 +27,7 @@ from dentdemo.carve.constants import (
 )
 from dentdemo.carve.texel_passes import swept_uniforms
 from dentdemo.gl.context import GLContext
+from dentdemo.mesh.thickness import vertex_thickness
 
 Array = NDArray[np.float64]
 
@@ -48,6 +49,8 @@ class Texels:
     source_rows: NDArray[np.int64]
     source_cols: NDArray[np.int64]
     gutter: NDArray[np.bool_]
+    #: The body's thickness under each texel's point, world metres (mesh/thickness.py).
+    thickness: Array
 
 
 class CpuReference:
@@ -212,7 +215,8 @@ def gather(
             )
         h = -inward
     seen &= h < ceiling
-    return np.where(seen, np.maximum(h, -max_dent_depth), np.nan)
+    # No deeper than the material's bound, nor than the body is thick under the texel.
+    return np.where(seen, np.maximum(h, -np.minimum(max_dent_depth, t.thickness)), np.nan)
 
 
 def _normal_exit(
@@ -321,6 +325,8 @@ def footprint_texels(
     world = mesh.positions.astype(np.float64)[tri] @ model[:3, :3].T + model[:3, 3]
     normal_matrix = np.linalg.inv(model[:3, :3]).T
     vnormal = mesh.normals.astype(np.float64)[tri] @ normal_matrix.T
+    scale = float(np.sqrt((model[:3, :3] ** 2).sum(axis=0).max()))  # rotation times a scale
+    vthick = vertex_thickness(mesh, tri.ravel()).astype(np.float64).reshape(tri.shape) * scale
     lo = np.floor(uv.min(axis=1)).astype(np.int64) - 1
     hi = np.ceil(uv.max(axis=1)).astype(np.int64) + 1
     lo = np.maximum(lo, 0)
@@ -346,6 +352,7 @@ def footprint_texels(
     point = np.einsum("kj,kjc->kc", bary, world[owner])
     face = np.cross(world[:, 1] - world[:, 0], world[:, 2] - world[:, 0])[owner]
     n = np.einsum("kj,kjc->kc", bary, vnormal[owner])
+    thick = np.einsum("kj,kj->k", bary, vthick[owner])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     # Clip distances of texel.vert / texel.geom: inside the rectangle and the slab.
     rel = point - cam.eye
@@ -373,6 +380,7 @@ def footprint_texels(
         src_rows[sel],
         src_cols[sel],
         gutter[sel],
+        thick[sel],
     )
 
 

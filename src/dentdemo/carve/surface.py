@@ -19,6 +19,7 @@ from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.shaders import program, set_uniform
 from dentdemo.gl.state import preserved
 from dentdemo.mesh.mesh import Mesh
+from dentdemo.mesh.thickness import OPEN, closed_thickness, vertex_thickness
 
 #: Largest map side, texels; a bigger request is capped with a warning.
 MAX_MAP_SIZE = 4096
@@ -93,7 +94,37 @@ class GpuMesh:
         #: Index buffers of triangle subsets, one per use ("address", "texels0", ...), each a
         #: stream that lists are appended to (see `draw`).
         self._subsets: dict[str, _IndexStream] = {}
+        #: The thickness `thickness_vbo` holds per vertex, NaN where not yet known (a mesh that
+        #: is not a built-in shape: its vertices are ray cast as hits reach them).
+        self._thickness_held: np.ndarray | None = None
         self._ctx = ctx
+
+    @cached_property
+    def thickness_vbo(self) -> moderngl.Buffer:
+        """The body's thickness under each vertex, local metres (mesh/thickness.py): a built-in
+        shape's in full; another mesh's OPEN until `ensure_thickness` fills its footprints."""
+        closed = closed_thickness(self.mesh)
+        if closed is None:
+            closed = np.full(len(self.mesh.positions), OPEN, dtype=np.float32)
+        return self._ctx.buffer(closed.astype("f4").tobytes())
+
+    def ensure_thickness(self, triangles: np.ndarray) -> None:
+        """Make `thickness_vbo` hold the thickness under the vertices of `triangles` (a hit's
+        footprint) before pass 4 draws them: ray cast once per vertex for a mesh that is not a
+        built-in shape (mesh/thickness.py), nothing to do for one that is."""
+        if closed_thickness(self.mesh) is not None or len(triangles) == 0:
+            return
+        if self._thickness_held is None:  # what thickness_vbo holds, kept here (no readback)
+            self._thickness_held = np.full(len(self.mesh.positions), np.nan, dtype=np.float32)
+        vertices = np.unique(self.mesh.indices[triangles])
+        vertices = vertices[np.isnan(self._thickness_held[vertices])]
+        if len(vertices) == 0:
+            return
+        self._thickness_held[vertices] = vertex_thickness(self.mesh, vertices)
+        # One write over the span of the new vertices; those in it not yet known stay OPEN.
+        lo, hi = int(vertices[0]), int(vertices[-1]) + 1
+        span = np.nan_to_num(self._thickness_held[lo:hi], nan=OPEN)
+        self.thickness_vbo.write(span.astype("f4").tobytes(), offset=4 * lo)
 
     @cached_property
     def radius(self) -> float:
@@ -114,7 +145,10 @@ class GpuMesh:
                 for f, n in zip(self._LAYOUT.split(), self._NAMES, strict=True)
             )
             ibo = self._subsets[subset].buffer if subset else self.ibo
-            self._vaos[key] = self._ctx.vertex_array(prog, [(self.vbo, fmt, *used)], ibo)
+            buffers = [(self.vbo, fmt, *used)]
+            if "in_thickness" in prog:  # the gather's bound (made on first use: a ray cast)
+                buffers.append((self.thickness_vbo, "1f", "in_thickness"))
+            self._vaos[key] = self._ctx.vertex_array(prog, buffers, ibo)
         return self._vaos[key]
 
     def draw(self, prog: moderngl.Program, triangles: np.ndarray | None, subset: str) -> None:
@@ -143,7 +177,8 @@ class GpuMesh:
 
     def release(self) -> None:
         release(*self._vaos.values(), *(s.buffer for s in self._subsets.values()))
-        release(self.vbo, self.ibo)
+        made = self.__dict__.get("thickness_vbo")  # a cached_property, if it was made
+        release(self.vbo, self.ibo, *([made] if made is not None else []))
 
 
 @dataclass

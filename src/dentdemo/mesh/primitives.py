@@ -42,8 +42,9 @@ def _cell(face: int) -> tuple[float, float, float, float]:
     return (col / 3 + GUTTER, row / 2 + GUTTER, 1 / 3 - 2 * GUTTER, 1 / 2 - 2 * GUTTER)
 
 
-def plate(side: float, subdivisions: int = 8) -> Mesh:
-    """The top face of a plate: a square of side `side` at y = 0 covering the whole uv square."""
+def plate(side: float, subdivisions: int = 8, thickness: float = 0.0) -> Mesh:
+    """The top face of a plate: a square of side `side` at y = 0 covering the whole uv square,
+    over `thickness` metres of material (its sides and bottom are drawn apart, never dented)."""
     n = subdivisions
     s = np.linspace(0.0, 1.0, n + 1)
     v, u = np.meshgrid(s, s, indexing="ij")
@@ -58,7 +59,7 @@ def plate(side: float, subdivisions: int = 8) -> Mesh:
         normals,
         uv.astype(np.float32),
         _grid_indices(n, n, 0),
-        bound=Bound(triangles=faces),
+        bound=Bound(triangles=faces, depth=thickness),
     )
 
 

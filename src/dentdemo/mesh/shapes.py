@@ -93,8 +93,8 @@ def shape_mesh(shape: Shape, tessellation: Tessellation = SANDBOX) -> Mesh:
             return primitives.sphere(r, subdivisions=t.sphere)
         case Box(size=size):
             return primitives.box(size)
-        case Plate(side=side):
-            return primitives.plate(side)
+        case Plate(side=side, thickness=thickness):
+            return primitives.plate(side, thickness=thickness)
         case Capsule(radius=r, length=length):
             return primitives.capsule(r, length, around=t.around, rings=t.rings)
         case Cylinder(radius=r, length=length):
