@@ -4,17 +4,23 @@ is a thin shell over it and tests drive it headless."""
 from __future__ import annotations
 
 import math
+import sys
+import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import moderngl
 import numpy as np
 
+from dentdemo import log
 from dentdemo.app.describe import describe
 from dentdemo.app.simulation import Simulation
+from dentdemo.app.watch import FileWatcher
+from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
-from dentdemo.model.materials import MaterialLibrary
-from dentdemo.model.scene import BodySpec, Scene
+from dentdemo.model.materials import MaterialLibrary, load_materials
+from dentdemo.model.scene import BodySpec, Scene, load_scene
 from dentdemo.model.shapes import Plate
 from dentdemo.render.camera import OrbitCamera
 from dentdemo.render.frame import RenderOptions
@@ -72,6 +78,12 @@ class DemoController:
         self.message = ""
         #: Where `export_gltf` writes (key G, the panel's button).
         self.gltf_path = GLTF_FILE
+        #: The user's materials files and the scene file, watched once `watch` was called.
+        self.material_files: tuple[Path, ...] = ()
+        self.scene_file: Path | None = None
+        self._watcher: FileWatcher | None = None
+        #: The scene file changed on disk (and is valid): `reset` loads it.
+        self.scene_changed = False
 
     # -- simulation ----------------------------------------------------------------------------
     def update(self, wall_seconds: float) -> int:
@@ -87,7 +99,82 @@ class DemoController:
         self.sim.step()
 
     def reset(self) -> None:
+        """Back to the scene as loaded; after a valid edit of the watched scene file, to the
+        file as it is now (its camera too, when the edit changed it)."""
+        if self.scene_changed and self.scene_file is not None:
+            try:
+                scene = load_scene(self.scene_file, self.materials)
+            except DentdemoError as exc:
+                self._report_error(exc)  # edited again since, into something invalid
+            else:
+                if scene.camera != self.sim.scene.camera:
+                    c = scene.camera
+                    self.camera = OrbitCamera.from_eye(c.eye, c.target, c.fov_deg)
+                self.sim.scene = scene
+                self.scene_changed = False
+                self.message = f"reset to the new {self.scene_file}"
         self.sim.reset()
+
+    # -- hot reload ----------------------------------------------------------------------------
+    def watch(self, material_files: Sequence[Path], scene_file: Path | None) -> None:
+        """Watch the user's materials files and the scene file: `poll_files` (each frame)
+        applies a saved change to the materials and offers a reset to a changed scene."""
+        self.material_files = tuple(Path(p) for p in material_files)
+        self.scene_file = None if scene_file is None else Path(scene_file)
+        watched = self.material_files + (() if self.scene_file is None else (self.scene_file,))
+        self._watcher = FileWatcher(watched)
+
+    def poll_files(self, now: float | None = None) -> list[str]:
+        """Look at the watched files (at most every POLL_INTERVAL seconds of `now`, default the
+        monotonic clock) and act on what changed; returns the lines reported (stderr and
+        `message`): `dentdemo: reloaded F (N materials)`, or the one-line error that the same
+        file would give at start-up, the last good values kept."""
+        if self._watcher is None:
+            return []
+        changed = self._watcher.poll(time.monotonic() if now is None else now)
+        lines: list[str] = []
+        if any(path in self.material_files for path in changed):
+            path = next(p for p in changed if p in self.material_files)
+            lines.append(self._reload_materials(path))
+        if self.scene_file in changed:
+            lines.append(self._scene_edited(self.scene_file))
+        return lines
+
+    def _reload_materials(self, path: Path) -> str:
+        try:
+            materials = load_materials(self.material_files)
+            self.sim.set_materials(materials, str(path))
+        except DentdemoError as exc:
+            return self._report_error(exc)
+        self.materials = materials
+        if self.scene_changed and self.scene_file is not None:
+            self._scene_edited(self.scene_file)  # the new scene with the new presets
+        count = materials.defined.get(str(path), 0)
+        return self._report(f"dentdemo: reloaded {path} ({count} materials)")
+
+    def _scene_edited(self, path: Path) -> str:
+        try:
+            scene = load_scene(path, self.materials)
+        except DentdemoError as exc:
+            self.scene_changed = False
+            return self._report_error(exc)
+        self.scene_changed = True
+        return self._report(
+            f"dentdemo: {path} changed ({len(scene.bodies)} bodies): reset (R) to load it"
+        )
+
+    def _report(self, line: str) -> str:
+        """An outcome of the hot reload: one stderr line (silenced by --quiet) and `message`."""
+        log.warn(line)
+        self.message = line
+        return line
+
+    def _report_error(self, exc: DentdemoError) -> str:
+        """A bad edit: the start-up error's one line on stderr and in `message`."""
+        line = str(exc).splitlines()[0]
+        print(line, file=sys.stderr)
+        self.message = line
+        return line
 
     def set_time_scale(self, scale: float) -> None:
         self.sim.time_scale = float(np.clip(scale, 0.0, 4.0))

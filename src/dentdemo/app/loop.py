@@ -69,6 +69,7 @@ class FrameLoop:
     def frame(self, last: bool = False, measure: bool = False) -> FrameTiming:
         """Step, render and present one frame."""
         interrupt.check()
+        self.app.poll_files()  # the demo's watched materials and scene files; else nothing
         finish = self.app.gl.ctx.finish if measure else _nothing
         start = time.perf_counter()
         wall, self._last = start - self._last, start

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import moderngl
@@ -188,6 +188,30 @@ class Simulation:
         self.queue = deque(
             r for r in self.queue if body_id not in (r.impact.body_a, r.impact.body_b)
         )
+
+    def set_materials(self, materials: MaterialLibrary, source: str = "materials") -> None:
+        """Use `materials` from now on (a hot reload): every body, the scene's included, takes
+        its preset's new values by name (looks, friction, restitution, density, k, Y, the dent
+        bound for new dents); new balls and plates use them too. Poses, velocities and dents are
+        kept. A preset that a body uses and `materials` lacks raises a ConfigError naming
+        `source`, and nothing changes."""
+        for spec in [*self.scene.bodies, *(b.spec for b in self.bodies.values())]:
+            materials.get(spec.material.name, source, f"body '{spec.id}'")
+
+        def renewed(spec: BodySpec) -> BodySpec:
+            material = materials.materials[spec.material.name]
+            return spec if material == spec.material else replace(spec, material=material)
+
+        self.materials = materials
+        self.scene = replace(self.scene, bodies=tuple(map(renewed, self.scene.bodies)))
+        for body_id, body in self.bodies.items():
+            spec = renewed(body.spec)
+            if spec is body.spec:
+                continue
+            body.spec = spec
+            body.maps.max_dent_depth = spec.material.max_dent_depth
+            if body_id in self.world.bodies:
+                self.world.set_spec(spec)
 
     def model(self, body_id: str) -> NDArray[np.float64]:
         return self.world.model_matrix(body_id) if body_id in self.world.bodies else np.eye(4)

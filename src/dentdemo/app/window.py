@@ -159,7 +159,7 @@ class DemoWindow:
         if imgui.button("add plate at target"):
             app.add_plate()
         imgui.same_line()
-        if imgui.button("reset"):
+        if imgui.button("reset to the new scene (R)" if app.scene_changed else "reset (R)"):
             app.reset()
         changed, scale = imgui.drag_float(
             "time scale (x real time)", app.sim.time_scale, 0.01, 0.0, 2.0, "%.2f x"

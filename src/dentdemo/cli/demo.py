@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from dentdemo import log
 from dentdemo.cli.args import (
     add_gltf,
     add_quality,
@@ -83,6 +84,9 @@ def run(args: argparse.Namespace) -> int:
         return _headless_instead(args, path, scene.physics.dt, exit_after, why)
     if gltf is not None:
         window.app.gltf_path = gltf
+    watched = [*args.materials, path]
+    window.app.watch([Path(p) for p in args.materials], path)
+    log.warn(f"dentdemo: watching {', '.join(map(str, watched))}: saved changes apply live")
     return window.run(shot, exit_after, gltf if exit_after is not None else None)
 
 

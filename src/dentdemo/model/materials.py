@@ -7,7 +7,7 @@ k in m per N*s (paper eq. 4), Y in N*s (paper eq. 5).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -116,6 +116,8 @@ class MaterialLibrary:
     calibration: Calibration
     materials: dict[str, Material]
     sources: tuple[str, ...]
+    #: How many presets each file in `sources` defines (adds or overrides), by path.
+    defined: dict[str, int] = field(default_factory=dict)
 
     def get(self, name: str, source: str = "materials", where: str = "") -> Material:
         """The preset `name`; an unknown name raises a ConfigError naming `source` and `where`."""
@@ -140,6 +142,7 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
     raw_tables: dict[str, tuple[str, dict[str, Any]]] = {}
     calibration_raw: tuple[str, dict[str, Any]] | None = None
     files = [builtin_materials_path(), *[Path(p) for p in user_files]]
+    defined: dict[str, int] = {}
     for path in files:
         data = load_toml(path)
         source = str(path)
@@ -153,6 +156,7 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
         materials = data.get("materials", {})
         if not isinstance(materials, dict):
             raise ConfigError(source, "[materials]", "must be a table of tables")
+        defined[source] = len(materials)
         for name, table in materials.items():
             raw_tables[name] = (source, table)
     calibration = _parse_calibration(*calibration_raw) if calibration_raw else Calibration()
@@ -162,7 +166,7 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
     }
     if not parsed:
         raise ConfigError(str(files[-1]), "", "no materials defined")
-    return MaterialLibrary(calibration, parsed, tuple(str(p) for p in files))
+    return MaterialLibrary(calibration, parsed, tuple(str(p) for p in files), defined)
 
 
 def _parse_calibration(source: str, table: Any) -> Calibration:

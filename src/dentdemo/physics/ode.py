@@ -65,6 +65,8 @@ REQUIRED_SYMBOLS = (
     "dBodyGetLinearVel",
     "dBodyGetAngularVel",
     "dBodySetMass",
+    "dBodyGetMass",
+    "dMassAdjust",
     "dBodyGetPointVel",
     "dMassSetZero",
     "dMassSetSphere",

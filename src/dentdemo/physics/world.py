@@ -205,6 +205,23 @@ class PhysicsWorld:
         if record.body is not None:
             ode.dBodyDestroy(record.body)
 
+    def set_spec(self, spec: BodySpec) -> None:
+        """Give the body `spec.id` a new spec that differs in its material only (a hot-reloaded
+        preset): friction, restitution and, for a dynamic body, mass from the new density; its
+        pose and velocities are kept."""
+        record = self.bodies[spec.id]
+        geom_addr = _addr(record.geom)
+        self._pair_surface = {k: v for k, v in self._pair_surface.items() if geom_addr not in k}
+        old_density = record.spec.material.density
+        record.spec = spec
+        if record.body is not None and spec.material.density != old_density:
+            # One density throughout: mass and inertia scale with it, the centre stays.
+            mass = ode.dMass()
+            ode.dBodyGetMass(record.body, ctypes.byref(mass))
+            ode.dMassAdjust(ctypes.byref(mass), mass.mass * spec.material.density / old_density)
+            ode.dBodySetMass(record.body, ctypes.byref(mass))
+            record.mass = float(mass.mass)
+
     def set_pose(self, body_id: str, position: NDArray, quaternion: NDArray) -> None:
         record = self.bodies[body_id]
         q = np.asarray(quaternion, dtype=np.float64)
