@@ -15,6 +15,7 @@ import numpy as np
 
 from dentdemo import log
 from dentdemo.app.describe import describe
+from dentdemo.app.editor import MaterialEditor, PredictedDent, predict_dent, with_preset
 from dentdemo.app.simulation import Simulation
 from dentdemo.app.watch import FileWatcher
 from dentdemo.errors import DentdemoError
@@ -35,6 +36,8 @@ CLOSE_UP_ELEVATION_DEG = 40.0
 STATE_DIR = Path("dentdemo_state")
 #: Where the demo's glTF key and button write by default (`demo --gltf` changes it).
 GLTF_FILE = Path("dentdemo.glb")
+#: Where the material editor saves when the demo was given no --materials file.
+MATERIALS_FILE = Path("dentdemo_materials.toml")
 
 
 @dataclass
@@ -84,6 +87,8 @@ class DemoController:
         self._watcher: FileWatcher | None = None
         #: The scene file changed on disk (and is valid): `reset` loads it.
         self.scene_changed = False
+        #: The panel's material editor, on the ball's preset to begin with.
+        self.editor = MaterialEditor(materials, self.panel.ball_material)
 
     # -- simulation ----------------------------------------------------------------------------
     def update(self, wall_seconds: float) -> int:
@@ -147,10 +152,52 @@ class DemoController:
         except DentdemoError as exc:
             return self._report_error(exc)
         self.materials = materials
+        name = self.editor.name if self.editor.name in materials.materials else None
+        self.editor.select(materials, name or self.panel.ball_material)
         if self.scene_changed and self.scene_file is not None:
             self._scene_edited(self.scene_file)  # the new scene with the new presets
         count = materials.defined.get(str(path), 0)
         return self._report(f"dentdemo: reloaded {path} ({count} materials)")
+
+    # -- material editor -----------------------------------------------------------------------
+    def edit_material(self, key: str, value: object) -> bool:
+        """Set one key of the edited preset (None removes an optional key). A valid draft is
+        used at once, by every body of that preset and by new ones; an invalid one leaves the
+        last valid preset in use, the validator's line in `editor.error`."""
+        preset = self.editor.set(key, value)
+        if preset is None:
+            return False
+        self.materials = with_preset(self.materials, preset)
+        self.editor.library = self.materials
+        self.sim.set_materials(self.materials)
+        return True
+
+    def predicted_dents(self) -> list[PredictedDent]:
+        """The dent a ball of the panel's material and radius, thrown at the panel's speed
+        straight onto a plate, leaves in each preset as the plate and in the ball."""
+        p = self.panel
+        ball = self.materials.get(p.ball_material)
+        return [
+            predict_dent(ball, p.ball_radius, p.throw_speed, self.materials.materials[name])
+            for name in self.materials.names()
+        ]
+
+    def save_materials(self) -> bool:
+        """Write the edited preset into the user's materials file (the last --materials file;
+        without one, `MATERIALS_FILE`, watched from then on), keeping its comments and order;
+        the shipped presets are never written. The outcome becomes `message`."""
+        from dentdemo.model.materials_save import save_preset
+
+        path = self.material_files[-1] if self.material_files else MATERIALS_FILE
+        try:
+            save_preset(path, self.editor.name, self.editor.draft, self.materials.calibration)
+        except DentdemoError as exc:
+            self._report_error(exc)
+            return False
+        if path not in self.material_files:
+            self.watch((*self.material_files, path), self.scene_file)
+        self.message = f"saved [materials.{self.editor.name}] to {path}"
+        return True
 
     def _scene_edited(self, path: Path) -> str:
         try:

@@ -15,6 +15,7 @@ from pathlib import Path
 import moderngl
 
 from dentdemo.app.controller import DemoController
+from dentdemo.app.editor_panel import editor_window
 from dentdemo.app.loop import FrameLoop
 from dentdemo.extras import require_app
 from dentdemo.gl.context import GLContext, create_window
@@ -207,6 +208,7 @@ class DemoWindow:
         imgui.text(f"bodies {len(app.sim.bodies)}   t = {app.sim.world.time:.2f} s")
         imgui.pop_item_width()
         imgui.end()
+        editor_window(imgui, app)
 
     # -- loop ----------------------------------------------------------------------------------
     def screenshot(self, path: Path) -> Path:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from dentdemo.errors import ConfigError
+from dentdemo.model.materials_keys import NUMBER_KEYS
 from dentdemo.model.validate import TableReader, load_toml
 from dentdemo.resources import assets_dir
 
@@ -39,9 +40,9 @@ class Appearance:
     #: Linear RGB base colour (albedo of a dielectric, F0 of a metal), each in [0, 1].
     base_colour: tuple[float, float, float] = (0.5, 0.5, 0.5)
     #: 0 dielectric, 1 metal.
-    metalness: float = 0.0
+    metalness: float = NUMBER_KEYS["metalness"].default or 0.0
     #: Perceptual roughness (GGX alpha = roughness^2), in [0.02, 1].
-    roughness: float = 0.5
+    roughness: float = NUMBER_KEYS["roughness"].default or 0.5
     #: Procedural detail: one of SURFACES.
     surface: str = "plain"
 
@@ -181,19 +182,44 @@ def _parse_calibration(source: str, table: Any) -> Calibration:
     return calibration
 
 
+def parse_material(source: str, name: str, table: Any, calibration: Calibration) -> Material:
+    """One `[materials.NAME]` table checked as a file's is (a ConfigError names `source`)."""
+    return _parse_material(source, name, table, calibration)
+
+
+def material_table(material: Material) -> dict[str, Any]:
+    """The preset as its `[materials.NAME]` table would spell it (k only when set explicitly):
+    `parse_material` of it gives the preset back."""
+    look = material.appearance
+    table: dict[str, Any] = {
+        "youngs_modulus_Pa": material.youngs_modulus,
+        "yield_stress_Pa": material.yield_stress,
+        "plastic_modulus_Pa": material.plastic_modulus,
+        "density_kg_m3": material.density,
+        "restitution": material.restitution,
+        "friction": material.friction,
+        "max_dent_depth_m": material.max_dent_depth,
+    }
+    if material.k_explicit:
+        table["k_m_per_Ns"] = material.k
+    table.update(
+        source=material.source,
+        base_colour=list(look.base_colour),
+        metalness=look.metalness,
+        roughness=look.roughness,
+        surface=look.surface,
+    )
+    return table
+
+
 def _parse_material(source: str, name: str, table: Any, calibration: Calibration) -> Material:
     reader = TableReader(source, f"materials.{name}", table)
-    youngs = reader.positive("youngs_modulus_Pa")
-    yield_stress = reader.positive("yield_stress_Pa")
-    plastic = reader.positive("plastic_modulus_Pa")
+    number = {key: spec.read(reader) for key, spec in NUMBER_KEYS.items() if not spec.optional}
+    youngs, plastic = number["youngs_modulus_Pa"], number["plastic_modulus_Pa"]
     if plastic >= youngs:
         raise reader.fail("plastic_modulus_Pa", f"must be below youngs_modulus_Pa ({youngs:g})")
-    density = reader.positive("density_kg_m3")
-    restitution = reader.number("restitution", min_value=0.0, max_value=1.0, max_inclusive=False)
-    friction = reader.number("friction", min_value=0.0, max_value=10.0)
-    max_depth = reader.number("max_dent_depth_m", min_value=0.0, max_value=1.0, min_inclusive=False)
     if reader.has("k_m_per_Ns"):
-        k = reader.number("k_m_per_Ns", min_value=0.0)
+        k = NUMBER_KEYS["k_m_per_Ns"].read(reader)
         explicit = True
     else:
         k = derived_k(youngs, plastic, calibration.k_per_compliance)
@@ -207,23 +233,23 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
         raise reader.fail("base_colour", "each component must lie in [0, 1] (linear RGB)")
     appearance = Appearance(
         base_colour=colour,
-        metalness=reader.number("metalness", default.metalness, min_value=0.0, max_value=1.0),
-        roughness=reader.number("roughness", default.roughness, min_value=0.02, max_value=1.0),
+        metalness=number["metalness"],
+        roughness=number["roughness"],
         surface=reader.string("surface", default.surface, choices=SURFACES),
     )
     reader.finish()
     return Material(
         name=name,
         youngs_modulus=youngs,
-        yield_stress=yield_stress,
+        yield_stress=number["yield_stress_Pa"],
         plastic_modulus=plastic,
-        density=density,
-        restitution=restitution,
-        friction=friction,
-        max_dent_depth=max_depth,
+        density=number["density_kg_m3"],
+        restitution=number["restitution"],
+        friction=number["friction"],
+        max_dent_depth=number["max_dent_depth_m"],
         k=k,
         k_explicit=explicit,
-        Y=threshold(restitution, calibration.Y_unit),
+        Y=threshold(number["restitution"], calibration.Y_unit),
         source=source_text,
         appearance=appearance,
     )
