@@ -79,6 +79,7 @@ def test_the_editor_shows_the_validators_ranges():
         "friction": "[0, 10]",
         "max_dent_depth_m": "(0, 1]",
         "k_m_per_Ns": "[0, inf)",
+        "rolling_friction": "[0, 1]",
         "metalness": "[0, 1]",
         "roughness": "[0.02, 1]",
     }

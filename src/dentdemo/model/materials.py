@@ -76,6 +76,9 @@ class Material:
     source: str
     #: Shading (optional keys of the file; defaults: grey, dielectric, half rough, plain).
     appearance: Appearance = Appearance()
+    #: Rolling resistance coefficient C_rr (resisting force / normal force, dimensionless); the
+    #: contact's torque limit is C_rr * N * the rolling radius (physics/world.py). 0: none.
+    rolling_friction: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -86,6 +89,7 @@ class Material:
             "density_kg_m3": self.density,
             "restitution": self.restitution,
             "friction": self.friction,
+            "rolling_friction": self.rolling_friction,
             "max_dent_depth_m": self.max_dent_depth,
             "k_m_per_Ns": self.k,
             "k_explicit": self.k_explicit,
@@ -198,6 +202,7 @@ def material_table(material: Material) -> dict[str, Any]:
         "density_kg_m3": material.density,
         "restitution": material.restitution,
         "friction": material.friction,
+        "rolling_friction": material.rolling_friction,
         "max_dent_depth_m": material.max_dent_depth,
     }
     if material.k_explicit:
@@ -252,4 +257,5 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
         Y=threshold(number["restitution"], calibration.Y_unit),
         source=source_text,
         appearance=appearance,
+        rolling_friction=number["rolling_friction"],
     )

@@ -70,6 +70,8 @@ MATERIAL_NUMBERS: tuple[NumberKey, ...] = (
     NumberKey("friction", "1", low=0.0, high=10.0),
     NumberKey("max_dent_depth_m", "m", low=0.0, high=1.0, low_inclusive=False),
     NumberKey("k_m_per_Ns", "m/(N*s)", low=0.0, optional=True),  # absent: derived from E and P
+    # Rolling resistance coefficient C_rr (force / normal force); absent: none.
+    NumberKey("rolling_friction", "1", low=0.0, high=1.0, default=0.0),
     NumberKey("metalness", "1", low=0.0, high=1.0, default=0.0),
     NumberKey("roughness", "1", low=0.02, high=1.0, default=0.5),
 )
