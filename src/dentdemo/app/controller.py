@@ -16,7 +16,10 @@ import numpy as np
 from dentdemo import log
 from dentdemo.app.describe import describe
 from dentdemo.app.editor import MaterialEditor, PredictedDent, predict_dent, with_preset
+from dentdemo.app.map_view import MapView
+from dentdemo.app.profiler import Profiler
 from dentdemo.app.simulation import Simulation
+from dentdemo.app.video import VideoFile
 from dentdemo.app.watch import FileWatcher
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
@@ -87,6 +90,13 @@ class DemoController:
         self._watcher: FileWatcher | None = None
         #: The scene file changed on disk (and is valid): `reset` loads it.
         self.scene_changed = False
+        #: The body the developer tools look at (Ctrl + click), or None.
+        self.selected: str | None = None
+        #: The last seconds of frame phases (the frame loop adds each frame).
+        self.profiler = Profiler()
+        #: The video being recorded from the window (F6), or None.
+        self.recorder: VideoFile | None = None
+        self._map_view: MapView | None = None
         #: The panel's material editor, on the ball's preset to begin with.
         self.editor = MaterialEditor(materials, self.panel.ball_material)
 
@@ -302,6 +312,78 @@ class DemoController:
         self.sim.add_body(spec)
         return body_id
 
+    def select_at(self, ndc_x: float, ndc_y: float) -> str | None:
+        """Ctrl + click: select the body under a screen point (the first its view ray meets,
+        by the collision shapes), or nothing."""
+        origin, direction = self.camera.ray(ndc_x, ndc_y, self.renderer.aspect)
+        self.selected = self.sim.world.ray_pick(origin, direction)
+        return self.selected
+
+    def selection_text(self) -> list[str]:
+        """The selected body for the panel: name, material, dent count and deepest dent."""
+        body = self.sim.bodies.get(self.selected) if self.selected else None
+        if body is None:
+            return ["nothing selected (Ctrl + click a body)"]
+        dents = self.sim.dents.get(body.spec.id)
+        count, deepest = (dents.count, dents.deepest) if dents else (0, 0.0)
+        what = "takes dents" if body.spec.dentable else "takes no dents"
+        return [
+            f"{body.spec.id}: {type(body.spec.shape).__name__.lower()}, "
+            f"{body.spec.material.name}, {what}",
+            f"{count} dents, deepest {deepest * 1e3:.2f} mm "
+            f"(bound {body.spec.material.max_dent_depth * 1e3:.0f} mm)",
+        ]
+
+    def map_textures(self) -> tuple[moderngl.Texture, moderngl.Texture] | None:
+        """The selected body's maps for the panel, redrawn now on the GPU: its heights coloured
+        as the height view colours them (RGBA8), and its normal map itself. None when nothing
+        that takes dents is selected."""
+        body = self.sim.bodies.get(self.selected) if self.selected else None
+        if body is None or not body.spec.dentable:
+            return None
+        if self._map_view is None:
+            self._map_view = MapView(self.gl)
+        return self._map_view.update(body.maps, self.options.legend_depth), body.maps.normal
+
+    # -- recording -----------------------------------------------------------------------------
+    def toggle_recording(self, path: Path | None = None) -> bool:
+        """F6 / panel: start recording the window to an MP4 (`path`, or the next free
+        dentdemo_NNN.mp4) at the scene's frame rate, the simulation stepping one fixed dt per
+        frame meanwhile, so the video plays in real time; or stop and finish it. Returns whether
+        it records now; the outcome becomes `message`."""
+        if self.recorder is not None:
+            self._stop_recording()
+            return False
+        target = path or _next_free("dentdemo_{:03d}.mp4")
+        fps = 1.0 / self.sim.scene.physics.dt
+        try:
+            self.recorder = VideoFile(self.renderer.size, target, fps, "recording")
+        except DentdemoError as exc:
+            self._report_error(exc)
+            return False
+        self.message = f"recording {target} at {fps:g} fps (F6 stops)"
+        return True
+
+    def record_frame(self, pixels: np.ndarray) -> None:
+        """One frame of the recording (RGB8 rows top-down, the renderer's size); a failing
+        writer ends the recording with its one line."""
+        if self.recorder is None:
+            return
+        try:
+            self.recorder.add(pixels)
+        except DentdemoError as exc:
+            recorder, self.recorder = self.recorder, None
+            recorder.discard()
+            self._report_error(exc)
+
+    def _stop_recording(self) -> None:
+        recorder, self.recorder = self.recorder, None
+        if recorder is None:
+            return
+        recorder.finish()
+        seconds = recorder.frames / recorder.fps
+        self.message = f"wrote {recorder.out} ({recorder.frames} frames, {seconds:.2f} s)"
+
     def close_up(self) -> bool:
         """Frame the last hit (key F, panel "close-up"): the camera 0.3 m from it, 40 degrees
         above the contact plane on its upper side, keeping the current heading. False before
@@ -365,6 +447,7 @@ class DemoController:
 
     def resize(self, size: tuple[int, int]) -> None:
         if size != self.renderer.size and min(size) > 0:
+            self._stop_recording()  # a video keeps one size: what was recorded is kept
             self._rebuild_renderer(size)
 
     def _rebuild_renderer(self, size: tuple[int, int]) -> None:
@@ -387,5 +470,16 @@ class DemoController:
         return path
 
     def close(self) -> None:
+        self._stop_recording()
+        if self._map_view is not None:
+            self._map_view.release()
         self.renderer.release()
         self.sim.close()
+
+
+def _next_free(pattern: str) -> Path:
+    """The first of pattern.format(1), pattern.format(2), ... that does not exist yet."""
+    index = 1
+    while Path(pattern.format(index)).exists():
+        index += 1
+    return Path(pattern.format(index))

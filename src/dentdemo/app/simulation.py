@@ -68,6 +68,16 @@ class CarveRequest:
 
 
 @dataclass
+class DentStats:
+    """The dents carved into one body since it was made (or the last reset)."""
+
+    count: int = 0
+    #: The deepest single press, metres (overlapping dents are not summed: the map keeps the
+    #: deepest surface, and is never read back to find it).
+    deepest: float = 0.0
+
+
+@dataclass
 class SimStats:
     frames: int = 0
     hits: int = 0
@@ -119,6 +129,8 @@ class Simulation:
         self.last_hit: CarveRequest | None = None
         self.ball_count = 0
         self._time_debt = 0.0
+        #: Per body: how many dents and the deepest press (the panel's selection).
+        self.dents: dict[str, DentStats] = {}
         self.bodies: dict[str, SimBody] = {}
         self.world: PhysicsWorld = build_world(scene)
         for spec in scene.bodies:
@@ -183,6 +195,7 @@ class Simulation:
         self._add_render_body(spec)
 
     def remove_body(self, body_id: str) -> None:
+        self.dents.pop(body_id, None)
         self.world.remove_body(body_id)
         _release_body(self.bodies.pop(body_id))
         self.queue = deque(
@@ -224,6 +237,7 @@ class Simulation:
         for gone in self.world.removed:
             if gone in self.bodies:
                 _release_body(self.bodies.pop(gone))
+                self.dents.pop(gone, None)
         self.world.removed.clear()
         physics_ms = (time.perf_counter() - start) * 1e3
         self.last_impacts = impacts
@@ -256,6 +270,15 @@ class Simulation:
             self.carver.carve_many([press for _, press in presses])
             self.carved_points.extend(request.impact.point for request, _ in presses)
             self.last_hit = presses[-1][0]
+            for request, _ in presses:
+                for body, depth in (
+                    (request.impact.body_a, request.depth_a),
+                    (request.impact.body_b, request.depth_b),
+                ):
+                    if depth > 0.0:
+                        stats = self.dents.setdefault(body, DentStats())
+                        stats.count += 1
+                        stats.deepest = max(stats.deepest, depth)
         return len(taken)
 
     def advance(self, seconds: float, max_steps: int = 4) -> int:
@@ -315,6 +338,7 @@ class Simulation:
         self.queue.clear()
         self.carved_points.clear()
         self.last_hit = None
+        self.dents.clear()
         self.stats = SimStats()
         self.ball_count = 0
         self.world = build_world(self.scene)

@@ -328,6 +328,29 @@ class PhysicsWorld:
         m[:3, 3] = position
         return m
 
+    def ray_pick(
+        self, origin: ArrayLike, direction: ArrayLike, length: float = 100.0
+    ) -> str | None:
+        """The body whose collision shape a ray (world origin, direction, metres) meets first,
+        or None. ODE's ray geom, outside the space: the simulation never sees it."""
+        o = np.asarray(origin, dtype=np.float64)
+        d = np.asarray(direction, dtype=np.float64)
+        d = d / np.linalg.norm(d)
+        ray = ode.dCreateRay(None, length)
+        try:
+            ode.dGeomRaySet(ray, *o, *d)
+            ode.dGeomRaySetClosestHit(ray, 1)
+            contact = ode.dContactGeom()
+            best, nearest = None, math.inf
+            for body_id, record in self.bodies.items():
+                size = ctypes.sizeof(contact)
+                hits = ode.dCollide(ray, record.geom, 1, ctypes.byref(contact), size)
+                if hits > 0 and contact.depth < nearest:
+                    best, nearest = body_id, float(contact.depth)
+            return best
+        finally:
+            ode.dGeomDestroy(ray)
+
     # -- stepping ------------------------------------------------------------------------------
     def step(self) -> list[Impact]:
         """Advance one frame step (spec.dt) in spec.substeps ODE steps; return its impacts, at most
