@@ -203,6 +203,27 @@ def test_an_invalid_edit_is_the_start_up_error_and_keeps_the_last_good_values(gl
         app.close()
 
 
+def test_two_files_saved_together_are_each_reported(gl, tmp_path):
+    user, scene_path = _files(tmp_path)
+    second = tmp_path / "more.toml"
+    second.write_text(USER.split("[materials.putty]")[1].join(["[materials.putty]", ""]))
+    lib = load_materials([user, second])
+    app = DemoController(gl, load_scene(scene_path, lib), lib, (64, 36))
+    app.watch([user, second], scene_path)
+    try:
+        user.write_text(USER.format(density=7850, restitution=0.4))
+        second.write_text(second.read_text().replace("restitution = 0.05", "restitution = 0.07"))
+        _, lines = _settle(app, 0.0)
+        assert lines == [
+            f"dentdemo: reloaded {user} (2 materials)",
+            f"dentdemo: reloaded {second} (1 materials)",
+        ]
+        assert app.materials.materials["putty"].restitution == 0.07
+        assert app.sim.bodies["ball"].spec.material.restitution == 0.4
+    finally:
+        app.close()
+
+
 def test_a_preset_a_body_uses_cannot_vanish(gl, tmp_path):
     user, scene_path = _files(tmp_path)
     app = _app(gl, user, scene_path)

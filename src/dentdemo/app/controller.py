@@ -148,26 +148,32 @@ class DemoController:
             return []
         changed = self._watcher.poll(time.monotonic() if now is None else now)
         lines: list[str] = []
-        if any(path in self.material_files for path in changed):
-            path = next(p for p in changed if p in self.material_files)
-            lines.append(self._reload_materials(path))
+        edited = [path for path in changed if path in self.material_files]
+        if edited:
+            lines += self._reload_materials(edited)
         if self.scene_file in changed:
             lines.append(self._scene_edited(self.scene_file))
         return lines
 
-    def _reload_materials(self, path: Path) -> str:
+    def _reload_materials(self, edited: list[Path]) -> list[str]:
+        """Load every materials file again after a save of `edited` ones: one line each, or the
+        first error's line and nothing changed."""
         try:
             materials = load_materials(self.material_files)
-            self.sim.set_materials(materials, str(path))
+            self.sim.set_materials(materials, str(edited[0]))
         except DentdemoError as exc:
-            return self._report_error(exc)
+            return [self._report_error(exc)]
         self.materials = materials
         name = self.editor.name if self.editor.name in materials.materials else None
         self.editor.select(materials, name or self.panel.ball_material)
         if self.scene_changed and self.scene_file is not None:
             self._scene_edited(self.scene_file)  # the new scene with the new presets
-        count = materials.defined.get(str(path), 0)
-        return self._report(f"dentdemo: reloaded {path} ({count} materials)")
+        return [
+            self._report(
+                f"dentdemo: reloaded {path} ({materials.defined.get(str(path), 0)} materials)"
+            )
+            for path in edited
+        ]
 
     # -- material editor -----------------------------------------------------------------------
     def edit_material(self, key: str, value: object) -> bool:

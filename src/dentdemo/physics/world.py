@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from dentdemo import interrupt
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
-from dentdemo.model.shapes import Box, Capsule, Cylinder, MeshFile, Plane, Plate, Sphere
+from dentdemo.model.shapes import Capsule, Cylinder, MeshFile, Plane, Sphere
 from dentdemo.physics.geoms import body_mass, destroy_geom, make_geom
 from dentdemo.physics.ode import Handle, fast, ode
 
@@ -130,16 +130,13 @@ def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
 def rolling_radius(
     spec: BodySpec, mesh_arrays: tuple[NDArray, NDArray] | None, com: NDArray[np.float64]
 ) -> float:
-    """The lever of a body's rolling resistance, m: a round shape's radius; a box's or plate's
-    half thinnest edge; a mesh's farthest vertex from its centre of mass (a disc or ring rolling
-    on its rim); 0 for the ground plane."""
+    """The lever of a body's rolling resistance, m: a round shape's radius; a mesh's farthest
+    vertex from its centre of mass (a disc or ring rolling on its rim). 0, no rolling rows, for
+    what does not roll (boxes, plates, the ground): it tips or slides, and ODE's solver is spared
+    three rows per contact."""
     match spec.shape:
         case Sphere(radius=r) | Capsule(radius=r) | Cylinder(radius=r):
             return float(r)
-        case Box(size=size):
-            return float(min(size)) / 2
-        case Plate(thickness=thickness):
-            return float(thickness) / 2
         case MeshFile() if mesh_arrays is not None:
             return float(np.linalg.norm(np.asarray(mesh_arrays[0]) - com, axis=1).max())
     return 0.0
@@ -148,10 +145,10 @@ def rolling_radius(
 def pair_surface(r1: _Body, r2: _Body) -> tuple[float, float, float]:
     """A touching pair's contact surface: mu (geometric mean of the two), bounce (the smaller
     restitution) and rho, m: the larger rolling coefficient C_rr of the two (the lossier surface
-    rules) times the rolling radius of the moving body (the smaller of two moving ones), so the
+    rules) times the rolling radius of the moving body that rolls (the smaller of two), so the
     resisting torque C_rr * N * R is that of a force C_rr * N at the rolling radius."""
     m1, m2 = r1.spec.material, r2.spec.material
-    moving = [r.rolling_radius for r in (r1, r2) if r.body is not None]
+    moving = [r.rolling_radius for r in (r1, r2) if r.body is not None and r.rolling_radius > 0]
     rho = max(m1.rolling_friction, m2.rolling_friction) * min(moving, default=0.0)
     return math.sqrt(m1.friction * m2.friction), min(m1.restitution, m2.restitution), rho
 
@@ -454,9 +451,14 @@ class PhysicsWorld:
 
     def _relative_spin(self, r1: _Body, r2: _Body) -> tuple[float, float, float]:
         """Angular velocity of r1 relative to r2, rad/s, world axes."""
-        w1 = ode.dBodyGetAngularVel(r1.body) if r1.body is not None else (0.0, 0.0, 0.0)
-        w2 = ode.dBodyGetAngularVel(r2.body) if r2.body is not None else (0.0, 0.0, 0.0)
-        return (w1[0] - w2[0], w1[1] - w2[1], w1[2] - w2[2])
+        x = y = z = 0.0
+        if r1.body_addr is not None:
+            w = fast.angular_vel(r1.body_addr)
+            x, y, z = w[0], w[1], w[2]
+        if r2.body_addr is not None:
+            w = fast.angular_vel(r2.body_addr)
+            x, y, z = x - w[0], y - w[1], z - w[2]
+        return (x, y, z)
 
     def _record(self, a: _Body, b: _Body, geom: Handle) -> None:
         px, py, pz = geom.pos[0], geom.pos[1], geom.pos[2]
