@@ -52,7 +52,8 @@ def test_dents_change_the_image_only_near_impacts(renders, gl):
     # Where were the dents carved? Re-run the same deterministic simulation and project them.
     lib = load_materials()
     scene = load_scene(BALL_DROP, lib)
-    from dentdemo.app.simulation import Simulation, pose_matrix
+    from dentdemo.app.simulation import Simulation
+    from dentdemo.physics.world import pose_matrix
 
     sim = Simulation(gl, scene, lib)
     carried = []  # (body, the impact point in that body's frame at the impact)

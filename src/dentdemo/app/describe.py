@@ -30,9 +30,9 @@ def describe(sim: Simulation, camera: OrbitCamera, options: RenderOptions) -> Fr
     if options.contacts:
         lines = _contact_lines(sim)
     inset = None
-    if options.address_map and sim.carver.last_jobs:
-        resolution = sim.carver.last_jobs[0].camera.resolution
-        inset = Inset(sim.carver.address_texture(), (resolution[0], resolution[1]))
+    address = sim.address_map() if options.address_map else None
+    if address is not None:
+        inset = Inset(*address)
     return FrameDescription(items, camera, sim.scene.light, options, ground_y, lines, inset)
 
 

@@ -26,7 +26,7 @@ from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
 from dentdemo.model.shapes import Plane, Plate, Sphere
 from dentdemo.physics.simulate import build_world
-from dentdemo.physics.world import Impact, PhysicsWorld, quat_to_matrix
+from dentdemo.physics.world import Impact, PhysicsWorld, pose_matrix
 from dentdemo.render.frame import MeshLevel
 
 #: How many recent carve points the contact debug view keeps.
@@ -90,13 +90,6 @@ class SimStats:
 def map_side(spec: BodySpec, mesh: Mesh) -> int:
     """Side of a body's square maps, texels: a body that takes no dents gets a 16² stand-in."""
     return map_size_for(mesh, spec.texels_per_metre) if spec.dentable else 16
-
-
-def pose_matrix(position: NDArray, quaternion: NDArray) -> NDArray[np.float64]:
-    m = np.eye(4)
-    m[:3, :3] = quat_to_matrix(np.asarray(quaternion, dtype=np.float64))
-    m[:3, 3] = position
-    return m
 
 
 class Simulation:
@@ -225,6 +218,14 @@ class Simulation:
             body.maps.max_dent_depth = spec.material.max_dent_depth
             if body_id in self.world.bodies:
                 self.world.set_spec(spec)
+
+    def address_map(self) -> tuple[moderngl.Texture, tuple[int, int]] | None:
+        """The last carve's address map and its size in pixels (the address-map debug view),
+        or None before the first carve."""
+        if not self.carver.last_jobs:
+            return None
+        resolution = self.carver.last_jobs[0].camera.resolution
+        return self.carver.address_texture(), (resolution[0], resolution[1])
 
     def model(self, body_id: str) -> NDArray[np.float64]:
         return self.world.model_matrix(body_id) if body_id in self.world.bodies else np.eye(4)

@@ -166,6 +166,15 @@ def _spin_axis(spin: tuple[float, float, float], normal: Handle, fdir1: Handle) 
     return int(ode.dContactFDir1)
 
 
+def pose_matrix(position: ArrayLike, quaternion: ArrayLike) -> NDArray[np.float64]:
+    """World from body-local 4x4 (column vectors) of a pose: the origin's position (m) and the
+    quaternion (w, x, y, z)."""
+    m = np.eye(4)
+    m[:3, :3] = quat_to_matrix(np.asarray(quaternion, dtype=np.float64))
+    m[:3, 3] = np.asarray(position, dtype=np.float64)
+    return m
+
+
 def _addr(ptr: Handle) -> int:
     return ctypes.cast(ptr, ctypes.c_void_p).value or 0
 
@@ -319,11 +328,7 @@ class PhysicsWorld:
 
     def model_matrix(self, body_id: str) -> NDArray[np.float64]:
         """World from body-local 4x4 (column vectors)."""
-        position, quat = self.pose(body_id)
-        m = np.eye(4)
-        m[:3, :3] = quat_to_matrix(quat)
-        m[:3, 3] = position
-        return m
+        return pose_matrix(*self.pose(body_id))
 
     def ray_pick(
         self, origin: ArrayLike, direction: ArrayLike, length: float = 100.0
