@@ -184,3 +184,33 @@ def test_recording_the_window_writes_an_mp4_at_the_fixed_step(xvfb, tmp_path):
     assert tuple(meta["size"]) == (320, 180) and meta["fps"] == pytest.approx(60.0)
     first = np.frombuffer(next(reader), np.uint8).reshape(180, 320, 3)
     assert first.std() > 10  # the scene, not a blank frame
+
+
+def test_the_world_holds_nothing_only_drawn_and_scenery_follows_it(app):
+    """Issue 23 item 5: the Simulation's bodies carry spec, mesh and maps only; the plate's sides
+    and curved bodies' coarser levels are the Scenery's, made on the first frame, kept across a
+    reset while the shape is the same, released when a body goes."""
+    from dataclasses import fields
+
+    from dentdemo.app.simulation import SimBody
+
+    assert [f.name for f in fields(SimBody)] == ["spec", "mesh", "gpu_mesh", "maps"]
+    assert app.scenery.parts == {}
+    app.render()
+    parts = app.scenery.parts
+    assert set(parts) == set(app.sim.bodies)
+    sides = parts["plate"].under
+    assert sides is not None and parts["ball"].under is None and parts["ball"].coarser
+    # The sides span the plate's 0.4 m and reach 0.02 m below its top face (body space).
+    box = sides.mesh.positions
+    np.testing.assert_allclose(box.max(axis=0)[[0, 2]], [0.2, 0.2], atol=1e-9)
+    assert box[:, 1].min() == pytest.approx(-0.02 - 2e-4, abs=1e-9)
+    app.reset()
+    app.render()
+    assert app.scenery.parts["plate"].under is sides  # the same shape: kept
+    ball = app.sim.drop_ball((0.1, 0.4, 0.0), radius=0.03)
+    app.render()
+    assert ball in app.scenery.parts
+    app.sim.remove_body(ball)
+    app.render()
+    assert ball not in app.scenery.parts

@@ -18,6 +18,7 @@ from dentdemo.app.describe import describe
 from dentdemo.app.editor import MaterialEditor, PredictedDent, predict_dent, with_preset
 from dentdemo.app.map_view import MapView
 from dentdemo.app.profiler import Profiler
+from dentdemo.app.scenery import Scenery
 from dentdemo.app.simulation import Simulation
 from dentdemo.app.video import VideoFile
 from dentdemo.app.watch import FileWatcher
@@ -70,6 +71,8 @@ class DemoController:
         self.gl = gl
         self.materials = materials
         self.sim = Simulation(gl, scene, materials, denting=denting)
+        #: What is drawn of the sim's bodies and never simulated (plate sides, images, levels).
+        self.scenery = Scenery(gl)
         #: The render quality preset (None: low on a software rasteriser, high on a GPU).
         self.quality = preset(quality, gl.software)
         self.renderer = Renderer(gl, size, self.quality)
@@ -443,7 +446,8 @@ class DemoController:
     # -- frames --------------------------------------------------------------------------------
     def render(self, target: moderngl.Framebuffer | None = None) -> moderngl.Framebuffer:
         """Describe and draw the frame into `target` (default: the renderer's output)."""
-        return self.renderer.render(describe(self.sim, self.camera, self.options), target)
+        frame = describe(self.sim, self.scenery, self.camera, self.options)
+        return self.renderer.render(frame, target)
 
     def set_quality(self, name: str) -> None:
         """Switch the render quality preset (panel "quality"); the scene is left as it is."""
@@ -479,6 +483,7 @@ class DemoController:
         self._stop_recording()
         if self._map_view is not None:
             self._map_view.release()
+        self.scenery.release()
         self.renderer.release()
         self.sim.close()
 

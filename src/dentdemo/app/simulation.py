@@ -18,16 +18,14 @@ from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
 from dentdemo.gl.context import GLContext
-from dentdemo.mesh import primitives
 from dentdemo.mesh.mesh import Mesh
-from dentdemo.mesh.shapes import coarser_levels, shape_mesh
+from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model.impulse import dent_depth
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
 from dentdemo.model.shapes import Plane, Plate, Sphere
 from dentdemo.physics.simulate import build_world
 from dentdemo.physics.world import Impact, PhysicsWorld, pose_matrix
-from dentdemo.render.frame import MeshLevel
 
 #: How many recent carve points the contact debug view keeps.
 CARVED_POINTS_KEPT = 1024
@@ -35,19 +33,14 @@ CARVED_POINTS_KEPT = 1024
 
 @dataclass
 class SimBody:
-    """A body as the app sees it: the scene spec, its mesh on the GPU, maps when dentable."""
+    """A body of the world: the scene spec, its mesh (on the GPU too: the carve draws it) and its
+    maps. What only the renderer uses is app/scenery.py's."""
 
     spec: BodySpec
     mesh: Mesh
     gpu_mesh: GpuMesh
     #: A body that takes no dents gets a flat 16^2 stand-in: it can still dent others.
     maps: SurfaceMaps
-    #: A plate's thickness below its dentable top face: drawn, never carved.
-    under: GpuMesh | None = None
-    #: The mesh file's own base-colour image on the GPU, if it brought one.
-    texture: moderngl.Texture | None = None
-    #: Coarser render meshes of a curved body (render/frame.py MeshLevel), finest first.
-    coarser: tuple[MeshLevel, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -138,20 +131,7 @@ class Simulation:
         if spec.dentable and spec.bump_map:
             start = load_height_png(Path(spec.bump_map), size, spec.bump_height)
         maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth, start)
-        under = None
-        if isinstance(spec.shape, Plate):
-            t = spec.shape.thickness
-            side = primitives.box((spec.shape.side, t, spec.shape.side))
-            side.positions[:, 1] -= t / 2 + 2e-4  # just below the top face
-            under = GpuMesh(self.gl, side)
-        texture = None
-        if mesh.base_colour_image is not None:
-            texture = _upload_image(self.gl, mesh.base_colour_image)
-        coarser = tuple(
-            MeshLevel(GpuMesh(self.gl, level.mesh), level.error)
-            for level in coarser_levels(spec.shape)
-        )
-        body = SimBody(spec, mesh, gpu, maps, under, texture, coarser)
+        body = SimBody(spec, mesh, gpu, maps)
         self.bodies[spec.id] = body
         return body
 
@@ -365,6 +345,7 @@ class Simulation:
         with tangents, the presets' materials, the meshes' own images, and the normal and height
         maps of the bodies that take dents, read back from the GPU. The ground plane (infinite)
         is left out."""
+        from dentdemo.app.scenery import plate_sides
         from dentdemo.gltf import GltfBody, GltfPart, dented_part, write_gltf
 
         bodies = []
@@ -377,8 +358,8 @@ class Simulation:
                 if body.spec.dentable
                 else GltfPart(body.mesh, look, name="surface")
             ]
-            if body.under is not None:  # a plate's sides: drawn, never dented
-                parts.append(GltfPart(body.under.mesh, look, name="sides"))
+            if isinstance(body.spec.shape, Plate):  # its sides: drawn, never dented
+                parts.append(GltfPart(plate_sides(body.spec.shape), look, name="sides"))
             bodies.append(GltfBody(body_id, self.model(body_id), tuple(parts)))
         return write_gltf(path, bodies)
 
@@ -401,20 +382,3 @@ def _triple(vector: ArrayLike) -> tuple[float, float, float]:
 def _release_body(body: SimBody) -> None:
     body.gpu_mesh.release()
     body.maps.release()
-    if body.under is not None:
-        body.under.release()
-    if body.texture is not None:
-        body.texture.release()
-    for level in body.coarser:
-        level.mesh.release()
-
-
-def _upload_image(gl: GLContext, image: NDArray[np.uint8]) -> moderngl.Texture:
-    """An sRGB RGBA8 image (rows top-down) as a repeating, mipmapped texture whose row 0 is the
-    image's bottom row (texture v = 0, as OBJ and glTF coordinates count it after the flip)."""
-    rgba = np.ascontiguousarray(image[::-1], dtype=np.uint8)
-    texture = gl.ctx.texture((rgba.shape[1], rgba.shape[0]), 4, rgba.tobytes())
-    texture.build_mipmaps()
-    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-    texture.repeat_x = texture.repeat_y = True
-    return texture
