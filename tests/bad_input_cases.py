@@ -686,6 +686,7 @@ def flag_cases() -> list[Case]:
         ("press_misses", [*INDENT, "--offset", "5", "5"], ("--offset", "cannot reach")),
         ("press_points_away", [*INDENT, "--normal", "0", "1", "0"], ("--normal", "never meets")),
         ("exit_after_negative", ["demo", "--exit-after", "-1"], ("--exit-after", "-1")),
+        ("select_unknown_body", ["demo", "--select", "nobody"], ("--select", "nobody")),
         (
             "screenshot_under_file",
             ["demo", "--screenshot", "afile/x.png"],

@@ -21,12 +21,13 @@ from PIL import Image
 
 import dentdemo
 from cli_helpers import dentdemo as run_dentdemo
+from dentdemo.app.scenery import plate_sides
 from dentdemo.app.simulation import Simulation
 from dentdemo.errors import DentdemoError
 from dentdemo.gltf import HEIGHT_KEY, quaternion, trs
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
-from dentdemo.model.shapes import Plane
+from dentdemo.model.shapes import Plane, Plate
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = sorted((ROOT / "assets" / "scenes").glob("*.toml"))
@@ -131,7 +132,9 @@ def exports(gl_session, tmp_path_factory) -> dict:
             bodies[body_id] = {
                 "spec": body.spec,
                 "mesh": body.mesh,
-                "under": body.under.mesh if body.under is not None else None,
+                "under": plate_sides(body.spec.shape)
+                if isinstance(body.spec.shape, Plate)
+                else None,
                 "model": sim.model(body_id),
                 "normal": gl.read(body.maps.normal),
                 "height": gl.read(body.maps.height)[:, :, 0],

@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: What the wheel must carry beside the code, as (folder in the repository, folder in the wheel).
 SHIPPED = (("shaders", "dentdemo/shaders"), ("assets", "dentdemo/assets"))
 #: The `app` extra's modules: none may be importable in the core install.
-APP_MODULES = ("glfw", "imgui_bundle", "imageio_ffmpeg", "tqdm")
+APP_MODULES = ("glfw", "imgui_bundle", "imageio_ffmpeg", "tqdm", "tomlkit")
 
 
 def _run(command: list[str], **kwargs) -> subprocess.CompletedProcess:

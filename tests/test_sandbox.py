@@ -53,11 +53,19 @@ def test_dents_change_the_image_only_near_impacts(renders, gl):
     lib = load_materials()
     scene = load_scene(BALL_DROP, lib)
     from dentdemo.app.simulation import Simulation
+    from dentdemo.physics.world import pose_matrix
 
     sim = Simulation(gl, scene, lib)
+    carried = []  # (body, the impact point in that body's frame at the impact)
     for _ in range(FRAMES):
-        sim.step()
-    points = np.array(sim.carved_points)
+        for impact in sim.step():
+            for body, pose in ((impact.body_a, impact.pose_a), (impact.body_b, impact.pose_b)):
+                local = np.linalg.inv(pose_matrix(*pose)) @ np.append(impact.point, 1.0)
+                carried.append((body, local))
+    # A dent moves with its body: where each impact's point on each body is now (a ball that
+    # rolled on shows its dent away from where it was carved), and where it was carved.
+    moved = [(sim.model(body) @ local)[:3] for body, local in carried if body in sim.bodies]
+    points = np.array([*sim.carved_points, *moved])
     camera = OrbitCamera.from_eye(scene.camera.eye, scene.camera.target, scene.camera.fov_deg)
     pixels = camera.project(points, SIZE[0] / SIZE[1], SIZE)
     ys, xs = np.nonzero(changed)

@@ -1,7 +1,8 @@
-"""The optional `app` extra: the window (glfw), the panel (imgui-bundle), video (imageio-ffmpeg)
-and progress bars (tqdm). `pip install dentdemo` leaves them out; the library (carve, meshes,
-model, physics, headless rendering) never imports them, and what needs one asks here first, so
-that a missing one is a single line naming the extra to install."""
+"""The optional `app` extra: the window (glfw), the panel (imgui-bundle), video (imageio-ffmpeg),
+progress bars (tqdm) and the material editor's saving (tomlkit). `pip install dentdemo` leaves
+them out; the library (carve, meshes, model, physics, headless rendering) never imports them,
+and what needs one asks here first, so that a missing one is a single line naming the extra to
+install."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ APP_PACKAGES = {
     "imgui_bundle": "imgui-bundle",
     "imageio_ffmpeg": "imageio-ffmpeg",
     "tqdm": "tqdm",
+    "tomlkit": "tomlkit",
 }
 
 

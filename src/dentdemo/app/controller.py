@@ -4,18 +4,29 @@ is a thin shell over it and tests drive it headless."""
 from __future__ import annotations
 
 import math
+import sys
+import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import moderngl
 import numpy as np
 
+from dentdemo import log
 from dentdemo.app import inputs
 from dentdemo.app.describe import describe
+from dentdemo.app.editor import MaterialEditor, PredictedDent, predict_dent, with_preset
+from dentdemo.app.map_view import MapView
+from dentdemo.app.profiler import Profiler
+from dentdemo.app.scenery import Scenery
 from dentdemo.app.simulation import Simulation
+from dentdemo.app.video import VideoFile
+from dentdemo.app.watch import FileWatcher
+from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
-from dentdemo.model.materials import MaterialLibrary
-from dentdemo.model.scene import BodySpec, Scene
+from dentdemo.model.materials import MaterialLibrary, load_materials
+from dentdemo.model.scene import BodySpec, Scene, load_scene
 from dentdemo.model.shapes import Plate
 from dentdemo.render.camera import OrbitCamera
 from dentdemo.render.frame import RenderOptions
@@ -30,6 +41,8 @@ CLOSE_UP_ELEVATION_DEG = 40.0
 STATE_DIR = Path("dentdemo_state")
 #: Where the demo's glTF key and button write by default (`demo --gltf` changes it).
 GLTF_FILE = Path("dentdemo.glb")
+#: Where the material editor saves when the demo was given no --materials file.
+MATERIALS_FILE = Path("dentdemo_materials.toml")
 
 
 @dataclass
@@ -59,6 +72,8 @@ class DemoController:
         self.gl = gl
         self.materials = materials
         self.sim = Simulation(gl, scene, materials, denting=denting)
+        #: What is drawn of the sim's bodies and never simulated (plate sides, images, levels).
+        self.scenery = Scenery(gl)
         #: The render quality preset (None: low on a software rasteriser, high on a GPU).
         self.quality = preset(quality, gl.software)
         self.renderer = Renderer(gl, size, self.quality)
@@ -73,6 +88,21 @@ class DemoController:
         self.message = ""
         #: Where `export_gltf` writes (key G, the panel's button).
         self.gltf_path = GLTF_FILE
+        #: The user's materials files and the scene file, watched once `watch` was called.
+        self.material_files: tuple[Path, ...] = ()
+        self.scene_file: Path | None = None
+        self._watcher: FileWatcher | None = None
+        #: The scene file changed on disk (and is valid): `reset` loads it.
+        self.scene_changed = False
+        #: The body the developer tools look at (Ctrl + click), or None.
+        self.selected: str | None = None
+        #: The last seconds of frame phases (the frame loop adds each frame).
+        self.profiler = Profiler()
+        #: The video being recorded from the window (F6), or None.
+        self.recorder: VideoFile | None = None
+        self._map_view: MapView | None = None
+        #: The panel's material editor, on the ball's preset to begin with.
+        self.editor = MaterialEditor(materials, self.panel.ball_material)
 
     # -- simulation ----------------------------------------------------------------------------
     def update(self, wall_seconds: float) -> int:
@@ -88,7 +118,130 @@ class DemoController:
         self.sim.step()
 
     def reset(self) -> None:
+        """Back to the scene as loaded; after a valid edit of the watched scene file, to the
+        file as it is now (its camera too, when the edit changed it)."""
+        if self.scene_changed and self.scene_file is not None:
+            try:
+                scene = load_scene(self.scene_file, self.materials)
+            except DentdemoError as exc:
+                self._report_error(exc)  # edited again since, into something invalid
+            else:
+                if scene.camera != self.sim.scene.camera:
+                    c = scene.camera
+                    self.camera = OrbitCamera.from_eye(c.eye, c.target, c.fov_deg)
+                self.sim.scene = scene
+                self.scene_changed = False
+                self.message = f"reset to the new {self.scene_file}"
         self.sim.reset()
+
+    # -- hot reload ----------------------------------------------------------------------------
+    def watch(self, material_files: Sequence[Path], scene_file: Path | None) -> None:
+        """Watch the user's materials files and the scene file: `poll_files` (each frame)
+        applies a saved change to the materials and offers a reset to a changed scene."""
+        self.material_files = tuple(Path(p) for p in material_files)
+        self.scene_file = None if scene_file is None else Path(scene_file)
+        watched = self.material_files + (() if self.scene_file is None else (self.scene_file,))
+        self._watcher = FileWatcher(watched)
+
+    def poll_files(self, now: float | None = None) -> list[str]:
+        """Look at the watched files (at most every POLL_INTERVAL seconds of `now`, default the
+        monotonic clock) and act on what changed; returns the lines reported (stderr and
+        `message`): `dentdemo: reloaded F (N materials)`, or the one-line error that the same
+        file would give at start-up, the last good values kept."""
+        if self._watcher is None:
+            return []
+        changed = self._watcher.poll(time.monotonic() if now is None else now)
+        lines: list[str] = []
+        edited = [path for path in changed if path in self.material_files]
+        if edited:
+            lines += self._reload_materials(edited)
+        if self.scene_file in changed:
+            lines.append(self._scene_edited(self.scene_file))
+        return lines
+
+    def _reload_materials(self, edited: list[Path]) -> list[str]:
+        """Load every materials file again after a save of `edited` ones: one line each, or the
+        first error's line and nothing changed."""
+        try:
+            materials = load_materials(self.material_files)
+            self.sim.set_materials(materials, str(edited[0]))
+        except DentdemoError as exc:
+            return [self._report_error(exc)]
+        self.materials = materials
+        name = self.editor.name if self.editor.name in materials.materials else None
+        self.editor.select(materials, name or self.panel.ball_material)
+        if self.scene_changed and self.scene_file is not None:
+            self._scene_edited(self.scene_file)  # the new scene with the new presets
+        return [
+            self._report(
+                f"dentdemo: reloaded {path} ({materials.defined.get(str(path), 0)} materials)"
+            )
+            for path in edited
+        ]
+
+    # -- material editor -----------------------------------------------------------------------
+    def edit_material(self, key: str, value: object) -> bool:
+        """Set one key of the edited preset (None removes an optional key). A valid draft is
+        used at once, by every body of that preset and by new ones; an invalid one leaves the
+        last valid preset in use, the validator's line in `editor.error`."""
+        preset = self.editor.set(key, value)
+        if preset is None:
+            return False
+        self.materials = with_preset(self.materials, preset)
+        self.editor.library = self.materials
+        self.sim.set_materials(self.materials)
+        return True
+
+    def predicted_dents(self) -> list[PredictedDent]:
+        """The dent a ball of the panel's material and radius, thrown at the panel's speed
+        straight onto a plate, leaves in each preset as the plate and in the ball."""
+        p = self.panel
+        ball = self.materials.get(p.ball_material)
+        return [
+            predict_dent(ball, p.ball_radius, p.throw_speed, self.materials.materials[name])
+            for name in self.materials.names()
+        ]
+
+    def save_materials(self) -> bool:
+        """Write the edited preset into the user's materials file (the last --materials file;
+        without one, `MATERIALS_FILE`, watched from then on), keeping its comments and order;
+        the shipped presets are never written. The outcome becomes `message`."""
+        from dentdemo.model.materials_save import save_preset
+
+        path = self.material_files[-1] if self.material_files else MATERIALS_FILE
+        try:
+            save_preset(path, self.editor.name, self.editor.draft, self.materials.calibration)
+        except DentdemoError as exc:
+            self._report_error(exc)
+            return False
+        if path not in self.material_files:
+            self.watch((*self.material_files, path), self.scene_file)
+        self.message = f"saved [materials.{self.editor.name}] to {path}"
+        return True
+
+    def _scene_edited(self, path: Path) -> str:
+        try:
+            scene = load_scene(path, self.materials)
+        except DentdemoError as exc:
+            self.scene_changed = False
+            return self._report_error(exc)
+        self.scene_changed = True
+        return self._report(
+            f"dentdemo: {path} changed ({len(scene.bodies)} bodies): reset (R) to load it"
+        )
+
+    def _report(self, line: str) -> str:
+        """An outcome of the hot reload: one stderr line (silenced by --quiet) and `message`."""
+        log.warn(line)
+        self.message = line
+        return line
+
+    def _report_error(self, exc: DentdemoError) -> str:
+        """A bad edit: the start-up error's one line on stderr and in `message`."""
+        line = str(exc).splitlines()[0]
+        print(line, file=sys.stderr)
+        self.message = line
+        return line
 
     def set_time_scale(self, scale: float) -> None:
         """x real time, clamped to inputs.TIME_SCALE; NaN is refused (the scale stays)."""
@@ -180,6 +333,78 @@ class DemoController:
         self.sim.add_body(spec)
         return body_id
 
+    def select_at(self, ndc_x: float, ndc_y: float) -> str | None:
+        """Ctrl + click: select the body under a screen point (the first its view ray meets,
+        by the collision shapes), or nothing."""
+        origin, direction = self.camera.ray(ndc_x, ndc_y, self.renderer.aspect)
+        self.selected = self.sim.world.ray_pick(origin, direction)
+        return self.selected
+
+    def selection_text(self) -> list[str]:
+        """The selected body for the panel: name, material, dent count and deepest dent."""
+        body = self.sim.bodies.get(self.selected) if self.selected else None
+        if body is None:
+            return ["nothing selected (Ctrl + click a body)"]
+        dents = self.sim.dents.get(body.spec.id)
+        count, deepest = (dents.count, dents.deepest) if dents else (0, 0.0)
+        what = "takes dents" if body.spec.dentable else "takes no dents"
+        return [
+            f"{body.spec.id}: {type(body.spec.shape).__name__.lower()}, "
+            f"{body.spec.material.name}, {what}",
+            f"{count} dents, deepest {deepest * 1e3:.2f} mm "
+            f"(bound {body.spec.material.max_dent_depth * 1e3:.0f} mm)",
+        ]
+
+    def map_textures(self) -> tuple[moderngl.Texture, moderngl.Texture] | None:
+        """The selected body's maps for the panel, redrawn now on the GPU: its heights coloured
+        as the height view colours them (RGBA8), and its normal map itself. None when nothing
+        that takes dents is selected."""
+        body = self.sim.bodies.get(self.selected) if self.selected else None
+        if body is None or not body.spec.dentable:
+            return None
+        if self._map_view is None:
+            self._map_view = MapView(self.gl)
+        return self._map_view.update(body.maps, self.options.legend_depth), body.maps.normal
+
+    # -- recording -----------------------------------------------------------------------------
+    def toggle_recording(self, path: Path | None = None) -> bool:
+        """F6 / panel: start recording the window to an MP4 (`path`, or the next free
+        dentdemo_NNN.mp4) at the scene's frame rate, the simulation stepping one fixed dt per
+        frame meanwhile, so the video plays in real time; or stop and finish it. Returns whether
+        it records now; the outcome becomes `message`."""
+        if self.recorder is not None:
+            self._stop_recording()
+            return False
+        target = path or _next_free("dentdemo_{:03d}.mp4")
+        fps = 1.0 / self.sim.scene.physics.dt
+        try:
+            self.recorder = VideoFile(self.renderer.size, target, fps, "recording")
+        except DentdemoError as exc:
+            self._report_error(exc)
+            return False
+        self.message = f"recording {target} at {fps:g} fps (F6 stops)"
+        return True
+
+    def record_frame(self, pixels: np.ndarray) -> None:
+        """One frame of the recording (RGB8 rows top-down, the renderer's size); a failing
+        writer ends the recording with its one line."""
+        if self.recorder is None:
+            return
+        try:
+            self.recorder.add(pixels)
+        except DentdemoError as exc:
+            recorder, self.recorder = self.recorder, None
+            recorder.discard()
+            self._report_error(exc)
+
+    def _stop_recording(self) -> None:
+        recorder, self.recorder = self.recorder, None
+        if recorder is None:
+            return
+        recorder.finish()
+        seconds = recorder.frames / recorder.fps
+        self.message = f"wrote {recorder.out} ({recorder.frames} frames, {seconds:.2f} s)"
+
     def close_up(self) -> bool:
         """Frame the last hit (key F, panel "close-up"): the camera 0.3 m from it, 40 degrees
         above the contact plane on its upper side, keeping the current heading. False before
@@ -233,7 +458,8 @@ class DemoController:
     # -- frames --------------------------------------------------------------------------------
     def render(self, target: moderngl.Framebuffer | None = None) -> moderngl.Framebuffer:
         """Describe and draw the frame into `target` (default: the renderer's output)."""
-        return self.renderer.render(describe(self.sim, self.camera, self.options), target)
+        frame = describe(self.sim, self.scenery, self.camera, self.options)
+        return self.renderer.render(frame, target)
 
     def set_quality(self, name: str) -> None:
         """Switch the render quality preset (panel "quality"); the scene is left as it is."""
@@ -243,6 +469,7 @@ class DemoController:
 
     def resize(self, size: tuple[int, int]) -> None:
         if size != self.renderer.size and min(size) > 0:
+            self._stop_recording()  # a video keeps one size: what was recorded is kept
             self._rebuild_renderer(size)
 
     def _rebuild_renderer(self, size: tuple[int, int]) -> None:
@@ -265,5 +492,17 @@ class DemoController:
         return path
 
     def close(self) -> None:
+        self._stop_recording()
+        if self._map_view is not None:
+            self._map_view.release()
+        self.scenery.release()
         self.renderer.release()
         self.sim.close()
+
+
+def _next_free(pattern: str) -> Path:
+    """The first of pattern.format(1), pattern.format(2), ... that does not exist yet."""
+    index = 1
+    while Path(pattern.format(index)).exists():
+        index += 1
+    return Path(pattern.format(index))

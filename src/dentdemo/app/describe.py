@@ -6,15 +6,20 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.app.scenery import Scenery
 from dentdemo.app.simulation import Simulation
 from dentdemo.model.shapes import Plane
 from dentdemo.render.camera import OrbitCamera
 from dentdemo.render.frame import DrawItem, FrameDescription, Inset, RenderOptions
 
 
-def describe(sim: Simulation, camera: OrbitCamera, options: RenderOptions) -> FrameDescription:
-    """The frame as the renderer needs it: every body at its pose with its maps, the light,
-    the ground, and the debug overlays the options ask for."""
+def describe(
+    sim: Simulation, scenery: Scenery, camera: OrbitCamera, options: RenderOptions
+) -> FrameDescription:
+    """The frame as the renderer needs it: every body at its pose with its maps and its drawn
+    parts (`scenery`, brought up to date), the light, the ground, and the debug overlays the
+    options ask for."""
+    parts = scenery.sync(sim)
     items: list[DrawItem] = []
     ground_y: float | None = None
     for body_id, body in sim.bodies.items():
@@ -23,16 +28,17 @@ def describe(sim: Simulation, camera: OrbitCamera, options: RenderOptions) -> Fr
             continue
         model = sim.model(body_id)
         look = body.spec.material.appearance
-        items.append(DrawItem(body.gpu_mesh, model, look, body.maps, body.texture, body.coarser))
-        if body.under is not None:
-            items.append(DrawItem(body.under, model, look))
+        drawn = parts[body_id]
+        items.append(DrawItem(body.gpu_mesh, model, look, body.maps, drawn.texture, drawn.coarser))
+        if drawn.under is not None:
+            items.append(DrawItem(drawn.under, model, look))
     lines = np.zeros((0, 6), np.float32)
     if options.contacts:
         lines = _contact_lines(sim)
     inset = None
-    if options.address_map and sim.carver.last_jobs:
-        resolution = sim.carver.last_jobs[0].camera.resolution
-        inset = Inset(sim.carver.address_texture(), (resolution[0], resolution[1]))
+    address = sim.address_map() if options.address_map else None
+    if address is not None:
+        inset = Inset(*address)
     return FrameDescription(items, camera, sim.scene.light, options, ground_y, lines, inset)
 
 

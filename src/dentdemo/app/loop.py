@@ -5,21 +5,17 @@ window), `--exit-after`, the bench and the tests all run frames through here."""
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
 import moderngl
-import numpy as np
 
 from dentdemo import interrupt
 from dentdemo.app.controller import DemoController
-from dentdemo.app.gif import GifStream
-from dentdemo.errors import DentdemoError
-from dentdemo.extras import require_app
-from dentdemo.outputs import temporary_beside, write_png
+from dentdemo.app.video import VideoFile
+from dentdemo.outputs import write_png
 from dentdemo.progress import progress_bar
 
 
@@ -52,6 +48,8 @@ class FrameTiming:
     carve_ms: float
     render_ms: float
     total_ms: float
+    #: The backend's share: the window's panel and buffer swap, or writing the image.
+    present_ms: float = 0.0
 
 
 class FrameLoop:
@@ -69,10 +67,11 @@ class FrameLoop:
     def frame(self, last: bool = False, measure: bool = False) -> FrameTiming:
         """Step, render and present one frame."""
         interrupt.check()
+        self.app.poll_files()  # the demo's watched materials and scene files; else nothing
         finish = self.app.gl.ctx.finish if measure else _nothing
         start = time.perf_counter()
         wall, self._last = start - self._last, start
-        if self.fixed_dt:
+        if self.fixed_dt or self.app.recorder is not None:  # a recording is at the fixed step
             if not self.app.paused:
                 self.app.sim.step()
         else:
@@ -85,14 +84,20 @@ class FrameLoop:
         finish()
         rendered = time.perf_counter()
         self.backend.present(self.app, output, last)
+        presented = time.perf_counter()
         self.frames += 1
         stats = self.app.sim.stats
-        return FrameTiming(
+        timing = FrameTiming(
             physics_ms=stats.physics_ms,
             carve_ms=(carved - stepped) * 1e3 + stats.carve_ms,
             render_ms=(rendered - carved) * 1e3,
             total_ms=(rendered - start) * 1e3,
+            present_ms=(presented - rendered) * 1e3,
         )
+        self.app.profiler.add(
+            presented, (timing.physics_ms, timing.carve_ms, timing.render_ms, timing.present_ms)
+        )
+        return timing
 
     def run(
         self, frames: int | None = None, until_time: float | None = None, progress: bool = False
@@ -140,70 +145,22 @@ class OffscreenBackend:
 
 
 class VideoBackend(OffscreenBackend):
-    """Every frame into one video: MP4 (H.264 through imageio-ffmpeg's ffmpeg) or an animated GIF
-    (Pillow), at the simulation's frame rate. The file is written beside its final name and
-    renamed when the loop ends (`finish`); `discard` removes it instead."""
+    """Every frame into one `VideoFile` at the simulation's frame rate (render --video)."""
 
     def __init__(self, size: tuple[int, int], out: Path, fps: float) -> None:
         self._size = size
         self.out = out
         self.fps = fps
-        self._gif: GifStream | None = None
-        self._writer = None
-        try:
-            out.parent.mkdir(parents=True, exist_ok=True)
-            fd, self._tmp = temporary_beside(out, out.suffix)
-        except OSError as exc:
-            raise DentdemoError(f"--video: cannot create '{out}' ({exc.strerror})") from None
-        if out.suffix.lower() == ".gif":
-            handle = os.fdopen(fd, "wb")
-            self._gif = GifStream(handle, size, round(100.0 / fps))
-        else:
-            os.close(fd)  # ffmpeg writes the file itself
-            require_app("--video: an MP4", "imageio_ffmpeg")
-            import imageio_ffmpeg
-
-            self._writer = imageio_ffmpeg.write_frames(
-                str(self._tmp),
-                size,
-                fps=fps,
-                codec="libx264",
-                quality=8,
-                macro_block_size=1,
-                output_params=["-pix_fmt", "yuv420p"],
-                ffmpeg_log_level="error",
-            )
-            self._writer.send(None)
+        self.video = VideoFile(size, out, fps)
 
     def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
-        pixels = app.renderer.read_rgb()
-        if self._writer is not None:
-            try:
-                self._writer.send(np.ascontiguousarray(pixels).tobytes())
-            except OSError as exc:  # ffmpeg went away: say so in one line
-                detail = " ".join(str(exc).split())[:200]
-                raise DentdemoError(f"--video: {self.out}: ffmpeg failed ({detail})") from None
-        elif self._gif is not None:
-            self._gif.add(pixels)  # written now: memory holds one frame
+        self.video.add(app.renderer.read_rgb())
 
     def finish(self) -> None:
-        """Close the file and give it its name."""
-        if self._writer is not None:
-            self._writer.close()
-        elif self._gif is not None:
-            self._gif.close()
-        os.chmod(self._tmp, 0o644)
-        self._tmp.replace(self.out)
+        self.video.finish()
 
     def discard(self) -> None:
-        if self._writer is not None:
-            try:
-                self._writer.close()
-            except Exception:  # noqa: BLE001 - ffmpeg already gone; the file goes anyway
-                pass
-        elif self._gif is not None:
-            self._gif.abort()
-        self._tmp.unlink(missing_ok=True)
+        self.video.discard()
 
 
 class ImageBackend(OffscreenBackend):

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import moderngl
@@ -18,16 +18,14 @@ from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
 from dentdemo.gl.context import GLContext
-from dentdemo.mesh import primitives
 from dentdemo.mesh.mesh import Mesh
-from dentdemo.mesh.shapes import coarser_levels, shape_mesh
+from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model.impulse import dent_depth
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
 from dentdemo.model.shapes import Plane, Plate, Sphere
 from dentdemo.physics.simulate import build_world
-from dentdemo.physics.world import Impact, PhysicsWorld, quat_to_matrix
-from dentdemo.render.frame import MeshLevel
+from dentdemo.physics.world import Impact, PhysicsWorld, pose_matrix
 
 #: How many recent carve points the contact debug view keeps.
 CARVED_POINTS_KEPT = 1024
@@ -35,19 +33,14 @@ CARVED_POINTS_KEPT = 1024
 
 @dataclass
 class SimBody:
-    """A body as the app sees it: the scene spec, its mesh on the GPU, maps when dentable."""
+    """A body of the world: the scene spec, its mesh (on the GPU too: the carve draws it) and its
+    maps. What only the renderer uses is app/scenery.py's."""
 
     spec: BodySpec
     mesh: Mesh
     gpu_mesh: GpuMesh
     #: A body that takes no dents gets a flat 16^2 stand-in: it can still dent others.
     maps: SurfaceMaps
-    #: A plate's thickness below its dentable top face: drawn, never carved.
-    under: GpuMesh | None = None
-    #: The mesh file's own base-colour image on the GPU, if it brought one.
-    texture: moderngl.Texture | None = None
-    #: Coarser render meshes of a curved body (render/frame.py MeshLevel), finest first.
-    coarser: tuple[MeshLevel, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -68,6 +61,16 @@ class CarveRequest:
 
 
 @dataclass
+class DentStats:
+    """The dents carved into one body since it was made (or the last reset)."""
+
+    count: int = 0
+    #: The deepest single press, metres (overlapping dents are not summed: the map keeps the
+    #: deepest surface, and is never read back to find it).
+    deepest: float = 0.0
+
+
+@dataclass
 class SimStats:
     frames: int = 0
     hits: int = 0
@@ -80,13 +83,6 @@ class SimStats:
 def map_side(spec: BodySpec, mesh: Mesh) -> int:
     """Side of a body's square maps, texels: a body that takes no dents gets a 16² stand-in."""
     return map_size_for(mesh, spec.texels_per_metre) if spec.dentable else 16
-
-
-def pose_matrix(position: NDArray, quaternion: NDArray) -> NDArray[np.float64]:
-    m = np.eye(4)
-    m[:3, :3] = quat_to_matrix(np.asarray(quaternion, dtype=np.float64))
-    m[:3, 3] = position
-    return m
 
 
 class Simulation:
@@ -119,6 +115,8 @@ class Simulation:
         self.last_hit: CarveRequest | None = None
         self.ball_count = 0
         self._time_debt = 0.0
+        #: Per body: how many dents and the deepest press (the panel's selection).
+        self.dents: dict[str, DentStats] = {}
         self.bodies: dict[str, SimBody] = {}
         self.world: PhysicsWorld = build_world(scene)
         for spec in scene.bodies:
@@ -133,20 +131,7 @@ class Simulation:
         if spec.dentable and spec.bump_map:
             start = load_height_png(Path(spec.bump_map), size, spec.bump_height)
         maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth, start)
-        under = None
-        if isinstance(spec.shape, Plate):
-            t = spec.shape.thickness
-            side = primitives.box((spec.shape.side, t, spec.shape.side))
-            side.positions[:, 1] -= t / 2 + 2e-4  # just below the top face
-            under = GpuMesh(self.gl, side)
-        texture = None
-        if mesh.base_colour_image is not None:
-            texture = _upload_image(self.gl, mesh.base_colour_image)
-        coarser = tuple(
-            MeshLevel(GpuMesh(self.gl, level.mesh), level.error)
-            for level in coarser_levels(spec.shape)
-        )
-        body = SimBody(spec, mesh, gpu, maps, under, texture, coarser)
+        body = SimBody(spec, mesh, gpu, maps)
         self.bodies[spec.id] = body
         return body
 
@@ -183,11 +168,44 @@ class Simulation:
         self._add_render_body(spec)
 
     def remove_body(self, body_id: str) -> None:
+        self.dents.pop(body_id, None)
         self.world.remove_body(body_id)
         _release_body(self.bodies.pop(body_id))
         self.queue = deque(
             r for r in self.queue if body_id not in (r.impact.body_a, r.impact.body_b)
         )
+
+    def set_materials(self, materials: MaterialLibrary, source: str = "materials") -> None:
+        """Use `materials` from now on (a hot reload): every body, the scene's included, takes
+        its preset's new values by name (looks, friction, restitution, density, k, Y, the dent
+        bound for new dents); new balls and plates use them too. Poses, velocities and dents are
+        kept. A preset that a body uses and `materials` lacks raises a ConfigError naming
+        `source`, and nothing changes."""
+        for spec in [*self.scene.bodies, *(b.spec for b in self.bodies.values())]:
+            materials.get(spec.material.name, source, f"body '{spec.id}'")
+
+        def renewed(spec: BodySpec) -> BodySpec:
+            material = materials.materials[spec.material.name]
+            return spec if material == spec.material else replace(spec, material=material)
+
+        self.materials = materials
+        self.scene = replace(self.scene, bodies=tuple(map(renewed, self.scene.bodies)))
+        for body_id, body in self.bodies.items():
+            spec = renewed(body.spec)
+            if spec is body.spec:
+                continue
+            body.spec = spec
+            body.maps.max_dent_depth = spec.material.max_dent_depth
+            if body_id in self.world.bodies:
+                self.world.set_spec(spec)
+
+    def address_map(self) -> tuple[moderngl.Texture, tuple[int, int]] | None:
+        """The last carve's address map and its size in pixels (the address-map debug view),
+        or None before the first carve."""
+        if not self.carver.last_jobs:
+            return None
+        resolution = self.carver.last_jobs[0].camera.resolution
+        return self.carver.address_texture(), (resolution[0], resolution[1])
 
     def model(self, body_id: str) -> NDArray[np.float64]:
         return self.world.model_matrix(body_id) if body_id in self.world.bodies else np.eye(4)
@@ -200,6 +218,7 @@ class Simulation:
         for gone in self.world.removed:
             if gone in self.bodies:
                 _release_body(self.bodies.pop(gone))
+                self.dents.pop(gone, None)
         self.world.removed.clear()
         physics_ms = (time.perf_counter() - start) * 1e3
         self.last_impacts = impacts
@@ -232,6 +251,15 @@ class Simulation:
             self.carver.carve_many([press for _, press in presses])
             self.carved_points.extend(request.impact.point for request, _ in presses)
             self.last_hit = presses[-1][0]
+            for request, _ in presses:
+                for body, depth in (
+                    (request.impact.body_a, request.depth_a),
+                    (request.impact.body_b, request.depth_b),
+                ):
+                    if depth > 0.0:
+                        stats = self.dents.setdefault(body, DentStats())
+                        stats.count += 1
+                        stats.deepest = max(stats.deepest, depth)
         return len(taken)
 
     def advance(self, seconds: float, max_steps: int = 4) -> int:
@@ -291,6 +319,7 @@ class Simulation:
         self.queue.clear()
         self.carved_points.clear()
         self.last_hit = None
+        self.dents.clear()
         self.stats = SimStats()
         self.ball_count = 0
         self._time_debt = 0.0
@@ -317,6 +346,7 @@ class Simulation:
         with tangents, the presets' materials, the meshes' own images, and the normal and height
         maps of the bodies that take dents, read back from the GPU. The ground plane (infinite)
         is left out."""
+        from dentdemo.app.scenery import plate_sides
         from dentdemo.gltf import GltfBody, GltfPart, dented_part, write_gltf
 
         bodies = []
@@ -329,8 +359,8 @@ class Simulation:
                 if body.spec.dentable
                 else GltfPart(body.mesh, look, name="surface")
             ]
-            if body.under is not None:  # a plate's sides: drawn, never dented
-                parts.append(GltfPart(body.under.mesh, look, name="sides"))
+            if isinstance(body.spec.shape, Plate):  # its sides: drawn, never dented
+                parts.append(GltfPart(plate_sides(body.spec.shape), look, name="sides"))
             bodies.append(GltfBody(body_id, self.model(body_id), tuple(parts)))
         return write_gltf(path, bodies)
 
@@ -353,20 +383,3 @@ def _triple(vector: ArrayLike) -> tuple[float, float, float]:
 def _release_body(body: SimBody) -> None:
     body.gpu_mesh.release()
     body.maps.release()
-    if body.under is not None:
-        body.under.release()
-    if body.texture is not None:
-        body.texture.release()
-    for level in body.coarser:
-        level.mesh.release()
-
-
-def _upload_image(gl: GLContext, image: NDArray[np.uint8]) -> moderngl.Texture:
-    """An sRGB RGBA8 image (rows top-down) as a repeating, mipmapped texture whose row 0 is the
-    image's bottom row (texture v = 0, as OBJ and glTF coordinates count it after the flip)."""
-    rgba = np.ascontiguousarray(image[::-1], dtype=np.uint8)
-    texture = gl.ctx.texture((rgba.shape[1], rgba.shape[0]), 4, rgba.tobytes())
-    texture.build_mipmaps()
-    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-    texture.repeat_x = texture.repeat_y = True
-    return texture

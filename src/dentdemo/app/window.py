@@ -1,10 +1,11 @@
 """The interactive demo: a glfw window with an imgui-bundle panel over a DemoController.
 
-Mouse: left drag orbits, a left click drops a ball above the clicked point, right drag throws a
-ball along the view ray (longer drags throw harder), middle drag or shift+left drag pans, the
-wheel zooms. Keys: Space pause, N single step, R reset, P screenshot, 1/2/3 shaded/height/normal
-view, W wireframe, C contacts, A address map, X parallax, F close-up on the last dent, F5/F9 save
-and load the state, G export every body to glTF, Esc quit.
+Mouse: left drag orbits, a left click drops a ball above the clicked point (Ctrl + click selects
+the body there for the developer tools), right drag throws a ball along the view ray (longer
+drags throw harder), middle drag or shift+left drag pans, the wheel zooms. Keys: Space pause,
+N single step, R reset, P screenshot, 1/2/3 shaded/height/normal view, W wireframe, C contacts,
+A address map, X parallax, F close-up on the last dent, F5/F9 save and load the state, F6 record
+video, G export every body to glTF, Esc quit.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ import moderngl
 
 from dentdemo.app import inputs
 from dentdemo.app.controller import DemoController
+from dentdemo.app.dev_panel import dev_window
+from dentdemo.app.editor_panel import editor_window
 from dentdemo.app.loop import FrameLoop
 from dentdemo.errors import DentdemoError
 from dentdemo.extras import require_app
@@ -90,11 +93,10 @@ class DemoWindow:
         if start is None:
             return
         moved = abs(x - start[0]) + abs(y - start[1])
-        if (
-            button == glfw.MOUSE_BUTTON_LEFT
-            and moved < CLICK_PIXELS
-            and not start[2] & glfw.MOD_SHIFT
-        ):
+        click = button == glfw.MOUSE_BUTTON_LEFT and moved < CLICK_PIXELS
+        if click and start[2] & glfw.MOD_CONTROL:
+            self.app.select_at(*self._ndc(x, y))
+        elif click and not start[2] & glfw.MOD_SHIFT:
             self.app.drop_ball(*self._ndc(x, y))
         elif button == glfw.MOUSE_BUTTON_RIGHT:
             h = glfw.get_window_size(window)[1]
@@ -126,6 +128,7 @@ class DemoWindow:
             glfw.KEY_F: self.app.close_up,
             glfw.KEY_F5: self.app.save_state,
             glfw.KEY_F9: self.app.load_state,
+            glfw.KEY_F6: self.app.toggle_recording,
             glfw.KEY_G: self.app.export_gltf,
             glfw.KEY_1: lambda: self.app.set_view(0),
             glfw.KEY_2: lambda: self.app.set_view(1),
@@ -174,7 +177,7 @@ class DemoWindow:
         if imgui.button("add plate at target"):
             app.add_plate()
         imgui.same_line()
-        if imgui.button("reset"):
+        if imgui.button("reset to the new scene (R)" if app.scene_changed else "reset (R)"):
             app.reset()
         changed, scale = imgui.drag_float(
             "time scale (x real time)", app.sim.time_scale, 0.01, 0.0, 2.0, "%.2f x"
@@ -222,6 +225,8 @@ class DemoWindow:
         imgui.text(f"bodies {len(app.sim.bodies)}   t = {app.sim.world.time:.2f} s")
         imgui.pop_item_width()
         imgui.end()
+        editor_window(imgui, app)
+        dev_window(imgui, app)
 
     # -- loop ----------------------------------------------------------------------------------
     def screenshot(self, path: Path) -> Path:
@@ -283,6 +288,9 @@ class DemoWindow:
         glfw, imgui, ctx = self.glfw, self.imgui, self.gl.ctx
         now = time.perf_counter()
         wall, self._presented = now - self._presented, now
+        if app.recorder is not None:  # the scene, without the panel
+            w, h = self.size()
+            app.record_frame(self.gl.read_framebuffer(ctx.screen, 3)[::-1][:h, :w])
         flush()  # the rasteriser finishes the frame while the panel is built
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from dentdemo import log
 from dentdemo.cli.args import (
     add_gltf,
     add_quality,
@@ -15,7 +16,7 @@ from dentdemo.cli.args import (
     float_in,
     size_wxh,
 )
-from dentdemo.errors import GLUnavailableError
+from dentdemo.errors import DentdemoError, GLUnavailableError
 from dentdemo.extras import require_app
 from dentdemo.outputs import check_output_file
 
@@ -44,6 +45,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="simulated seconds after which to exit (saving --screenshot)",
     )
     p.add_argument("--size", type=size_wxh, default="1280x720", metavar="WxH", help="window pixels")
+    p.add_argument(
+        "--select",
+        metavar="BODY",
+        help="a body of the scene to select at start, for the developer tools (Ctrl + click "
+        "selects in the window)",
+    )
     add_quality(p)
     add_gltf(
         p,
@@ -68,6 +75,11 @@ def run(args: argparse.Namespace) -> int:
     materials = load_materials(args.materials)
     path = Path(args.scene)
     scene = load_scene(path, materials)
+    ids = [spec.id for spec in scene.bodies]
+    if args.select is not None and args.select not in ids:
+        raise DentdemoError(
+            f"--select: no body '{args.select}' in {path} (bodies: {', '.join(ids)})"
+        )
     from dentdemo.gl.context import has_display
 
     if not has_display():
@@ -83,6 +95,10 @@ def run(args: argparse.Namespace) -> int:
         return _headless_instead(args, path, scene.physics.dt, exit_after, why)
     if gltf is not None:
         window.app.gltf_path = gltf
+    window.app.selected = args.select
+    watched = [*args.materials, path]
+    window.app.watch([Path(p) for p in args.materials], path)
+    log.warn(f"dentdemo: watching {', '.join(map(str, watched))}: saved changes apply live")
     return window.run(shot, exit_after, gltf if exit_after is not None else None)
 
 

@@ -7,11 +7,12 @@ k in m per N*s (paper eq. 4), Y in N*s (paper eq. 5).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from dentdemo.errors import ConfigError
+from dentdemo.model.materials_keys import NUMBER_KEYS
 from dentdemo.model.validate import TableReader, load_toml
 from dentdemo.resources import assets_dir
 
@@ -39,9 +40,9 @@ class Appearance:
     #: Linear RGB base colour (albedo of a dielectric, F0 of a metal), each in [0, 1].
     base_colour: tuple[float, float, float] = (0.5, 0.5, 0.5)
     #: 0 dielectric, 1 metal.
-    metalness: float = 0.0
+    metalness: float = NUMBER_KEYS["metalness"].default or 0.0
     #: Perceptual roughness (GGX alpha = roughness^2), in [0.02, 1].
-    roughness: float = 0.5
+    roughness: float = NUMBER_KEYS["roughness"].default or 0.5
     #: Procedural detail: one of SURFACES.
     surface: str = "plain"
 
@@ -75,6 +76,9 @@ class Material:
     source: str
     #: Shading (optional keys of the file; defaults: grey, dielectric, half rough, plain).
     appearance: Appearance = Appearance()
+    #: Rolling resistance coefficient C_rr (resisting force / normal force, dimensionless); the
+    #: contact's torque limit is C_rr * N * the rolling radius (physics/world.py). 0: none.
+    rolling_friction: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -85,6 +89,7 @@ class Material:
             "density_kg_m3": self.density,
             "restitution": self.restitution,
             "friction": self.friction,
+            "rolling_friction": self.rolling_friction,
             "max_dent_depth_m": self.max_dent_depth,
             "k_m_per_Ns": self.k,
             "k_explicit": self.k_explicit,
@@ -116,6 +121,8 @@ class MaterialLibrary:
     calibration: Calibration
     materials: dict[str, Material]
     sources: tuple[str, ...]
+    #: How many presets each file in `sources` defines (adds or overrides), by path.
+    defined: dict[str, int] = field(default_factory=dict)
 
     def get(self, name: str, source: str = "materials", where: str = "") -> Material:
         """The preset `name`; an unknown name raises a ConfigError naming `source` and `where`."""
@@ -140,6 +147,7 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
     raw_tables: dict[str, tuple[str, dict[str, Any]]] = {}
     calibration_raw: tuple[str, dict[str, Any]] | None = None
     files = [builtin_materials_path(), *[Path(p) for p in user_files]]
+    defined: dict[str, int] = {}
     for path in files:
         data = load_toml(path)
         source = str(path)
@@ -153,6 +161,7 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
         materials = data.get("materials", {})
         if not isinstance(materials, dict):
             raise ConfigError(source, "[materials]", "must be a table of tables")
+        defined[source] = len(materials)
         for name, table in materials.items():
             raw_tables[name] = (source, table)
     calibration = _parse_calibration(*calibration_raw) if calibration_raw else Calibration()
@@ -162,7 +171,7 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
     }
     if not parsed:
         raise ConfigError(str(files[-1]), "", "no materials defined")
-    return MaterialLibrary(calibration, parsed, tuple(str(p) for p in files))
+    return MaterialLibrary(calibration, parsed, tuple(str(p) for p in files), defined)
 
 
 def _parse_calibration(source: str, table: Any) -> Calibration:
@@ -177,19 +186,45 @@ def _parse_calibration(source: str, table: Any) -> Calibration:
     return calibration
 
 
+def parse_material(source: str, name: str, table: Any, calibration: Calibration) -> Material:
+    """One `[materials.NAME]` table checked as a file's is (a ConfigError names `source`)."""
+    return _parse_material(source, name, table, calibration)
+
+
+def material_table(material: Material) -> dict[str, Any]:
+    """The preset as its `[materials.NAME]` table would spell it (k only when set explicitly):
+    `parse_material` of it gives the preset back."""
+    look = material.appearance
+    table: dict[str, Any] = {
+        "youngs_modulus_Pa": material.youngs_modulus,
+        "yield_stress_Pa": material.yield_stress,
+        "plastic_modulus_Pa": material.plastic_modulus,
+        "density_kg_m3": material.density,
+        "restitution": material.restitution,
+        "friction": material.friction,
+        "rolling_friction": material.rolling_friction,
+        "max_dent_depth_m": material.max_dent_depth,
+    }
+    if material.k_explicit:
+        table["k_m_per_Ns"] = material.k
+    table.update(
+        source=material.source,
+        base_colour=list(look.base_colour),
+        metalness=look.metalness,
+        roughness=look.roughness,
+        surface=look.surface,
+    )
+    return table
+
+
 def _parse_material(source: str, name: str, table: Any, calibration: Calibration) -> Material:
     reader = TableReader(source, f"materials.{name}", table)
-    youngs = reader.positive("youngs_modulus_Pa")
-    yield_stress = reader.positive("yield_stress_Pa")
-    plastic = reader.positive("plastic_modulus_Pa")
+    number = {key: spec.read(reader) for key, spec in NUMBER_KEYS.items() if not spec.optional}
+    youngs, plastic = number["youngs_modulus_Pa"], number["plastic_modulus_Pa"]
     if plastic >= youngs:
         raise reader.fail("plastic_modulus_Pa", f"must be below youngs_modulus_Pa ({youngs:g})")
-    density = reader.positive("density_kg_m3")
-    restitution = reader.number("restitution", min_value=0.0, max_value=1.0, max_inclusive=False)
-    friction = reader.number("friction", min_value=0.0, max_value=10.0)
-    max_depth = reader.number("max_dent_depth_m", min_value=0.0, max_value=1.0, min_inclusive=False)
     if reader.has("k_m_per_Ns"):
-        k = reader.number("k_m_per_Ns", min_value=0.0)
+        k = NUMBER_KEYS["k_m_per_Ns"].read(reader)
         explicit = True
     else:
         k = derived_k(youngs, plastic, calibration.k_per_compliance)
@@ -203,23 +238,24 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
         raise reader.fail("base_colour", "each component must lie in [0, 1] (linear RGB)")
     appearance = Appearance(
         base_colour=colour,
-        metalness=reader.number("metalness", default.metalness, min_value=0.0, max_value=1.0),
-        roughness=reader.number("roughness", default.roughness, min_value=0.02, max_value=1.0),
+        metalness=number["metalness"],
+        roughness=number["roughness"],
         surface=reader.string("surface", default.surface, choices=SURFACES),
     )
     reader.finish()
     return Material(
         name=name,
         youngs_modulus=youngs,
-        yield_stress=yield_stress,
+        yield_stress=number["yield_stress_Pa"],
         plastic_modulus=plastic,
-        density=density,
-        restitution=restitution,
-        friction=friction,
-        max_dent_depth=max_depth,
+        density=number["density_kg_m3"],
+        restitution=number["restitution"],
+        friction=number["friction"],
+        max_dent_depth=number["max_dent_depth_m"],
         k=k,
         k_explicit=explicit,
-        Y=threshold(restitution, calibration.Y_unit),
+        Y=threshold(number["restitution"], calibration.Y_unit),
         source=source_text,
         appearance=appearance,
+        rolling_friction=number["rolling_friction"],
     )

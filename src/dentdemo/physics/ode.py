@@ -65,6 +65,8 @@ REQUIRED_SYMBOLS = (
     "dBodyGetLinearVel",
     "dBodyGetAngularVel",
     "dBodySetMass",
+    "dBodyGetMass",
+    "dMassAdjust",
     "dBodyGetPointVel",
     "dMassSetZero",
     "dMassSetSphere",
@@ -78,6 +80,9 @@ REQUIRED_SYMBOLS = (
     "dCreateCapsule",
     "dCreateCylinder",
     "dCreatePlane",
+    "dCreateRay",
+    "dGeomRaySet",
+    "dGeomRaySetClosestHit",
     "dCreateTriMesh",
     "dGeomTriMeshDataCreate",
     "dGeomTriMeshDataDestroy",
@@ -200,6 +205,8 @@ class FastCalls:
         self.create_contact = loadOde("dJointCreateContact", vp, vp, vp, vp)
         self.attach = loadOde("dJointAttach", None, vp, vp, vp)
         self.point_vel = loadOde("dBodyGetPointVel", None, vp, ode.dReal, ode.dReal, ode.dReal, vp)
+        #: (dBodyID) -> const dReal[3], rad/s.
+        self.angular_vel = loadOde("dBodyGetAngularVel", ctypes.POINTER(ode.dReal), vp)
         self.r_from_q = loadOde("dRfromQ", None, vp, vp)  # (dMatrix3 R out, dQuaternion q)
 
 

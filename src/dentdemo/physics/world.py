@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from dentdemo import interrupt
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
-from dentdemo.model.shapes import MeshFile, Plane
+from dentdemo.model.shapes import Capsule, Cylinder, MeshFile, Plane, Sphere
 from dentdemo.physics.geoms import body_mass, destroy_geom, make_geom
 from dentdemo.physics.ode import Handle, fast, ode
 
@@ -27,6 +27,13 @@ MAX_CONTACTS = 8
 #: step, which would make restitution depend on dt.
 CONTACT_CFM = 1e-9
 _CONTACT_MODE = ode.dContactBounce | ode.dContactSoftCFM | ode.dContactApprox1
+#: With rolling resistance: ODE's rolling rows (limits proportional to the normal force, as
+#: dContactApprox1 makes them), and the contact frame's first axis given (fdir1, set per contact
+#: along the relative spin) so that one row of limit rho * N resists the rolling, whatever its
+#: direction: ODE bounds each axis on its own, which would give up to sqrt(2) rho N diagonally.
+_ROLLING_MODE = _CONTACT_MODE | ode.dContactRolling
+#: Below this relative spin, rad/s, the contact frame is ODE's own.
+_SPIN_MIN = 1e-9
 
 
 @dataclass
@@ -92,6 +99,8 @@ class _Body:
     com_offset: NDArray[np.float64]
     keep_alive: list = field(default_factory=list)  # ctypes buffers ODE points into
     body_addr: int | None = None  # the dBodyID as an integer, for the hot path
+    #: Lever of the rolling resistance, m: from the centre of mass to where the body rests.
+    rolling_radius: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -116,6 +125,54 @@ def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
             [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
         ]
     )
+
+
+def rolling_radius(
+    spec: BodySpec, mesh_arrays: tuple[NDArray, NDArray] | None, com: NDArray[np.float64]
+) -> float:
+    """The lever of a body's rolling resistance, m: a round shape's radius; a mesh's farthest
+    vertex from its centre of mass (a disc or ring rolling on its rim). 0, no rolling rows, for
+    what does not roll (boxes, plates, the ground): it tips or slides, and ODE's solver is spared
+    three rows per contact."""
+    match spec.shape:
+        case Sphere(radius=r) | Capsule(radius=r) | Cylinder(radius=r):
+            return float(r)
+        case MeshFile() if mesh_arrays is not None:
+            return float(np.linalg.norm(np.asarray(mesh_arrays[0]) - com, axis=1).max())
+    return 0.0
+
+
+def pair_surface(r1: _Body, r2: _Body) -> tuple[float, float, float]:
+    """A touching pair's contact surface: mu (geometric mean of the two), bounce (the smaller
+    restitution) and rho, m: the larger rolling coefficient C_rr of the two (the lossier surface
+    rules) times the rolling radius of the moving body that rolls (the smaller of two), so the
+    resisting torque C_rr * N * R is that of a force C_rr * N at the rolling radius."""
+    m1, m2 = r1.spec.material, r2.spec.material
+    moving = [r.rolling_radius for r in (r1, r2) if r.body is not None and r.rolling_radius > 0]
+    rho = max(m1.rolling_friction, m2.rolling_friction) * min(moving, default=0.0)
+    return math.sqrt(m1.friction * m2.friction), min(m1.restitution, m2.restitution), rho
+
+
+def _spin_axis(spin: tuple[float, float, float], normal: Handle, fdir1: Handle) -> int:
+    """Set `fdir1` along the part of `spin` in the contact plane (the axis the pair rolls
+    about) and return dContactFDir1; 0 (ODE's own frame) when it hardly spins."""
+    nx, ny, nz = normal[0], normal[1], normal[2]
+    along = spin[0] * nx + spin[1] * ny + spin[2] * nz
+    tx, ty, tz = spin[0] - along * nx, spin[1] - along * ny, spin[2] - along * nz
+    length = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if length < _SPIN_MIN:
+        return 0
+    fdir1[0], fdir1[1], fdir1[2] = tx / length, ty / length, tz / length
+    return int(ode.dContactFDir1)
+
+
+def pose_matrix(position: ArrayLike, quaternion: ArrayLike) -> NDArray[np.float64]:
+    """World from body-local 4x4 (column vectors) of a pose: the origin's position (m) and the
+    quaternion (w, x, y, z)."""
+    m = np.eye(4)
+    m[:3, :3] = quat_to_matrix(np.asarray(quaternion, dtype=np.float64))
+    m[:3, 3] = np.asarray(position, dtype=np.float64)
+    return m
 
 
 def _addr(ptr: Handle) -> int:
@@ -155,14 +212,15 @@ class PhysicsWorld:
         # Views into the contact slots, made once: ctypes makes a new object per field access,
         # and the near callback runs for every touching pair in every substep.
         self._slots = [
-            (contact.surface, contact.geom, address)
+            (contact.surface, contact.geom, contact.fdir1, address)
             for contact, address in zip(self._contacts, self._contact_addrs, strict=True)
         ]
         self._callback = fast.near_callback_type(self._near)
         self._world_addr = _addr(self.world)
         self._group_addr = _addr(self.contact_group)
         self._space_addr = _addr(self.space)
-        self._pair_surface: dict[tuple[int, int], tuple[float, float]] = {}
+        #: (mu, bounce, rho in m) of a touching pair of geoms, made on first touch.
+        self._pair_surface: dict[tuple[int, int], tuple[float, float, float]] = {}
         self._pending: dict[tuple[str, str], Impact] = {}
         self._callback_error: BaseException | None = None
         self._vel_buffer = (ode.dReal * 4)()
@@ -176,6 +234,7 @@ class PhysicsWorld:
         shape = spec.shape
         geom, keep, com = make_geom(self.space, spec, mesh_arrays)
         record = _Body(spec, geom, None, math.inf, com, keep)
+        record.rolling_radius = rolling_radius(spec, mesh_arrays, com)
         if not spec.static and not isinstance(shape, Plane):
             try:
                 mass, com = body_mass(spec, geom, mesh_arrays, com)
@@ -204,6 +263,23 @@ class PhysicsWorld:
         destroy_geom(record.geom, record.keep_alive)
         if record.body is not None:
             ode.dBodyDestroy(record.body)
+
+    def set_spec(self, spec: BodySpec) -> None:
+        """Give the body `spec.id` a new spec that differs in its material only (a hot-reloaded
+        preset): friction, restitution and, for a dynamic body, mass from the new density; its
+        pose and velocities are kept."""
+        record = self.bodies[spec.id]
+        geom_addr = _addr(record.geom)
+        self._pair_surface = {k: v for k, v in self._pair_surface.items() if geom_addr not in k}
+        old_density = record.spec.material.density
+        record.spec = spec
+        if record.body is not None and spec.material.density != old_density:
+            # One density throughout: mass and inertia scale with it, the centre stays.
+            mass = ode.dMass()
+            ode.dBodyGetMass(record.body, ctypes.byref(mass))
+            ode.dMassAdjust(ctypes.byref(mass), mass.mass * spec.material.density / old_density)
+            ode.dBodySetMass(record.body, ctypes.byref(mass))
+            record.mass = float(mass.mass)
 
     def set_pose(self, body_id: str, position: NDArray, quaternion: NDArray) -> None:
         record = self.bodies[body_id]
@@ -252,11 +328,30 @@ class PhysicsWorld:
 
     def model_matrix(self, body_id: str) -> NDArray[np.float64]:
         """World from body-local 4x4 (column vectors)."""
-        position, quat = self.pose(body_id)
-        m = np.eye(4)
-        m[:3, :3] = quat_to_matrix(quat)
-        m[:3, 3] = position
-        return m
+        return pose_matrix(*self.pose(body_id))
+
+    def ray_pick(
+        self, origin: ArrayLike, direction: ArrayLike, length: float = 100.0
+    ) -> str | None:
+        """The body whose collision shape a ray (world origin, direction, metres) meets first,
+        or None. ODE's ray geom, outside the space: the simulation never sees it."""
+        o = np.asarray(origin, dtype=np.float64)
+        d = np.asarray(direction, dtype=np.float64)
+        d = d / np.linalg.norm(d)
+        ray = ode.dCreateRay(None, length)
+        try:
+            ode.dGeomRaySet(ray, *o, *d)
+            ode.dGeomRaySetClosestHit(ray, 1)
+            contact = ode.dContactGeom()
+            best, nearest = None, math.inf
+            for body_id, record in self.bodies.items():
+                size = ctypes.sizeof(contact)
+                hits = ode.dCollide(ray, record.geom, 1, ctypes.byref(contact), size)
+                if hits > 0 and contact.depth < nearest:
+                    best, nearest = body_id, float(contact.depth)
+            return best
+        finally:
+            ode.dGeomDestroy(ray)
 
     # -- stepping ------------------------------------------------------------------------------
     def step(self) -> list[Impact]:
@@ -338,21 +433,37 @@ class PhysicsWorld:
         key = (g1, g2)
         surface = self._pair_surface.get(key)
         if surface is None:
-            m1, m2 = r1.spec.material, r2.spec.material
-            surface = (math.sqrt(m1.friction * m2.friction), min(m1.restitution, m2.restitution))
+            surface = pair_surface(r1, r2)
             self._pair_surface[key] = surface
-        mu, bounce = surface
+        mu, bounce, rho = surface
         deepest, best = self._slots[0][1], -math.inf
         world, group, body1, body2 = self._world_addr, self._group_addr, r1.body_addr, r2.body_addr
-        for surface_, geom, address in self._slots[:count]:
-            surface_.mu = mu  # mode, bounce_vel and soft_cfm are set once (__init__)
+        spin = self._relative_spin(r1, r2) if rho > 0.0 else None
+        for surface_, geom, fdir1, address in self._slots[:count]:
+            surface_.mu = mu  # bounce_vel and soft_cfm are set once (__init__)
             surface_.bounce = bounce
+            if spin is None:
+                surface_.mode = _CONTACT_MODE
+            else:
+                surface_.rho = rho
+                surface_.mode = _ROLLING_MODE | _spin_axis(spin, geom.normal, fdir1)
             depth = geom.depth
             if depth > best:
                 deepest, best = geom, depth
             fast.attach(fast.create_contact(world, group, address), body1, body2)
         # ODE's normal points into g1: from body A = owner of g2 towards body B = owner of g1.
         self._record(r2, r1, deepest)
+
+    def _relative_spin(self, r1: _Body, r2: _Body) -> tuple[float, float, float]:
+        """Angular velocity of r1 relative to r2, rad/s, world axes."""
+        x = y = z = 0.0
+        if r1.body_addr is not None:
+            w = fast.angular_vel(r1.body_addr)
+            x, y, z = w[0], w[1], w[2]
+        if r2.body_addr is not None:
+            w = fast.angular_vel(r2.body_addr)
+            x, y, z = x - w[0], y - w[1], z - w[2]
+        return (x, y, z)
 
     def _record(self, a: _Body, b: _Body, geom: Handle) -> None:
         px, py, pz = geom.pos[0], geom.pos[1], geom.pos[2]

@@ -1,0 +1,339 @@
+"""Hot reload (issue 23, item 1): the demo's materials and scene files are watched while it runs.
+Driven through the controller (no window), then once through a real window under Xvfb."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from dentdemo.app.controller import DemoController
+from dentdemo.app.watch import POLL_INTERVAL
+from dentdemo.model.materials import load_materials
+from dentdemo.model.scene import load_scene
+
+#: A user file overriding steel (the shipped values but restitution and density) and adding a
+#: preset of its own.
+USER = """# my presets: a comment that must survive
+[materials.steel]
+youngs_modulus_Pa = 200e9
+yield_stress_Pa = 250e6
+plastic_modulus_Pa = 2.0e9
+density_kg_m3 = {density}
+restitution = {restitution}
+friction = 0.6
+max_dent_depth_m = 0.01
+
+[materials.putty]
+youngs_modulus_Pa = 1e6
+yield_stress_Pa = 1e4
+plastic_modulus_Pa = 1e5
+density_kg_m3 = 1500
+restitution = 0.05
+friction = 0.9
+max_dent_depth_m = 0.02
+"""
+
+SCENE = """[scene]
+name = "tiny"
+
+[camera]
+eye = [1.0, 0.8, 1.0]
+target = [0.0, 0.0, 0.0]
+
+[[body]]
+id = "ground"
+shape = "plane"
+material = "oak"
+
+[[body]]
+id = "plate"
+shape = "plate"
+side = 0.4
+thickness = 0.02
+material = "steel"
+position = [0.0, 0.02, 0.0]
+static = true
+texels_per_metre = 256
+
+[[body]]
+id = "ball"
+shape = "sphere"
+radius = 0.04
+material = "steel"
+position = [{x}, 0.3, 0.0]
+texels_per_metre = 256
+"""
+
+SECOND_BALL = """
+[[body]]
+id = "ball_two"
+shape = "sphere"
+radius = 0.03
+material = "putty"
+position = [-0.1, 0.5, 0.0]
+"""
+
+BALL_MASS_AT = 4.0 / 3.0 * math.pi * 0.04**3  # m^3: kg per (kg/m^3) of a 4 cm ball
+
+
+def _files(tmp_path: Path) -> tuple[Path, Path]:
+    user = tmp_path / "mine.toml"
+    user.write_text(USER.format(density=7850, restitution=0.6))
+    scene = tmp_path / "tiny.toml"
+    scene.write_text(SCENE.format(x=0.0))
+    return user, scene
+
+
+def _app(gl, user: Path, scene_path: Path) -> DemoController:
+    lib = load_materials([user])
+    app = DemoController(gl, load_scene(scene_path, lib), lib, (64, 36))
+    app.watch([user], scene_path)
+    return app
+
+
+def _settle(app: DemoController, start: float, seconds: float = 1.0) -> tuple[float, list[str]]:
+    """Poll once a frame (60 Hz) from `start` for `seconds`: (when the first line came, lines)."""
+    t = start
+    while t < start + seconds:
+        lines = app.poll_files(t)
+        if lines:
+            return t - start, lines
+        t += 1.0 / 60.0
+    return math.inf, []
+
+
+def test_a_saved_materials_edit_reaches_every_body_and_new_balls_within_a_second(
+    gl, tmp_path, capsys
+):
+    user, scene_path = _files(tmp_path)
+    app = _app(gl, user, scene_path)
+    try:
+        for _ in range(3):
+            app.sim.step()
+        assert app.poll_files(0.0) == []  # nothing changed
+        user.write_text(USER.format(density=2 * 7850, restitution=0.3))
+        after, lines = _settle(app, 10.0)
+        # Two polls POLL_INTERVAL apart settle a change: well within a second of the save.
+        assert after <= 2 * POLL_INTERVAL + 1e-9
+        assert lines == [f"dentdemo: reloaded {user} (2 materials)"]
+        assert lines[0] in capsys.readouterr().err.splitlines()
+        assert app.message == lines[0]
+        ball, plate = app.sim.bodies["ball"], app.sim.bodies["plate"]
+        for body in (ball, plate):
+            assert body.spec.material.restitution == 0.3
+            assert body.spec.material.density == 2 * 7850
+        # The physics sees the new preset: the ball's mass from the new density (by hand).
+        record = app.sim.world.bodies["ball"]
+        assert record.mass == pytest.approx(BALL_MASS_AT * 2 * 7850, rel=1e-12)
+        assert record.spec.material.restitution == 0.3
+        # A reset keeps the new values (the scene's specs were renewed too); so do new balls.
+        new = app.sim.drop_ball((0.1, 0.5, 0.0), material="steel")
+        assert app.sim.bodies[new].spec.material.restitution == 0.3
+        assert app.sim.world.bodies[new].mass == pytest.approx(BALL_MASS_AT * 2 * 7850, rel=1e-12)
+        app.reset()
+        assert app.sim.bodies["ball"].spec.material.density == 2 * 7850
+        app.sim.step()
+    finally:
+        app.close()
+
+
+def test_a_reloaded_restitution_changes_the_next_bounce(gl, tmp_path):
+    """The contact's bounce comes from the reloaded preset: a ball dropped after the edit comes
+    back up higher with restitution 0.9 than the same drop before with 0.1 (both balls steel on
+    steel: eps = min of the pair)."""
+    user, scene_path = _files(tmp_path)
+    user.write_text(USER.format(density=7850, restitution=0.1))
+    app = _app(gl, user, scene_path)
+
+    def rebound(x: float) -> float:
+        ball = app.sim.drop_ball((x, 0.25, 0.0), material="steel")
+        top, falling = 0.0, True
+        for _ in range(90):
+            app.sim.step()
+            y, vy = app.sim.world.pose(ball)[0][1], app.sim.world.velocity(ball)[0][1]
+            falling = falling and vy <= 0.0
+            if not falling:
+                top = max(top, y)
+        app.sim.remove_body(ball)
+        return top
+
+    try:
+        low = rebound(0.12)
+        user.write_text(USER.format(density=7850, restitution=0.9))
+        assert _settle(app, 0.0)[1]
+        high = rebound(-0.12)
+        # Drop from 0.25 m to the plate top (0.02) + radius: h = 0.19 m; a bounce reaches
+        # eps^2 h above the contact height: 0.0019 m at 0.1, 0.154 m at 0.9.
+        assert low < 0.06 + 0.01 and high > 0.06 + 0.12
+    finally:
+        app.close()
+
+
+def test_an_invalid_edit_is_the_start_up_error_and_keeps_the_last_good_values(gl, tmp_path, capsys):
+    user, scene_path = _files(tmp_path)
+    app = _app(gl, user, scene_path)
+    try:
+        user.write_text(USER.format(density=7850, restitution=1.5))
+        _, lines = _settle(app, 0.0)
+        expected = f"{user}: [materials.steel] key 'restitution' = 1.5: must be < 1"
+        assert lines == [expected]
+        start_up = subprocess.run(
+            [sys.executable, "-m", "dentdemo", "materials", "--materials", str(user)],
+            capture_output=True,
+            text=True,
+        )
+        assert start_up.returncode == 1 and start_up.stderr.strip() == expected
+        assert capsys.readouterr().err.splitlines() == [expected]
+        assert app.message == expected
+        assert app.sim.bodies["ball"].spec.material.restitution == 0.6
+        for _ in range(5):
+            app.sim.step()  # the demo keeps running
+        # Mended: the next save is applied.
+        user.write_text(USER.format(density=7850, restitution=0.5))
+        _, lines = _settle(app, 5.0)
+        assert lines == [f"dentdemo: reloaded {user} (2 materials)"]
+        assert app.sim.bodies["ball"].spec.material.restitution == 0.5
+    finally:
+        app.close()
+
+
+def test_two_files_saved_together_are_each_reported(gl, tmp_path):
+    user, scene_path = _files(tmp_path)
+    second = tmp_path / "more.toml"
+    second.write_text(USER.split("[materials.putty]")[1].join(["[materials.putty]", ""]))
+    lib = load_materials([user, second])
+    app = DemoController(gl, load_scene(scene_path, lib), lib, (64, 36))
+    app.watch([user, second], scene_path)
+    try:
+        user.write_text(USER.format(density=7850, restitution=0.4))
+        second.write_text(second.read_text().replace("restitution = 0.05", "restitution = 0.07"))
+        _, lines = _settle(app, 0.0)
+        assert lines == [
+            f"dentdemo: reloaded {user} (2 materials)",
+            f"dentdemo: reloaded {second} (1 materials)",
+        ]
+        assert app.materials.materials["putty"].restitution == 0.07
+        assert app.sim.bodies["ball"].spec.material.restitution == 0.4
+    finally:
+        app.close()
+
+
+def test_a_preset_a_body_uses_cannot_vanish(gl, tmp_path):
+    user, scene_path = _files(tmp_path)
+    app = _app(gl, user, scene_path)
+    try:
+        ball = app.sim.drop_ball((0.1, 0.4, 0.0), material="putty")
+        user.write_text(USER.format(density=7850, restitution=0.2).split("[materials.putty]")[0])
+        _, lines = _settle(app, 0.0)
+        assert len(lines) == 1
+        assert lines[0].startswith(f"{user}: body '{ball}': unknown material 'putty'")
+        # Nothing changed: not even the steel that the same save edited.
+        assert app.sim.bodies["ball"].spec.material.restitution == 0.6
+        assert "putty" in app.materials.materials
+    finally:
+        app.close()
+
+
+def test_a_scene_edit_offers_a_reset_to_the_new_scene(gl, tmp_path, capsys):
+    user, scene_path = _files(tmp_path)
+    app = _app(gl, user, scene_path)
+    try:
+        scene_path.write_text(SCENE.format(x=0.1) + SECOND_BALL)
+        _, lines = _settle(app, 0.0)
+        assert lines == [f"dentdemo: {scene_path} changed (4 bodies): reset (R) to load it"]
+        assert app.scene_changed
+        assert set(app.sim.bodies) == {"ground", "plate", "ball"}  # offered, not forced
+        assert app.sim.world.pose("ball")[0][0] == 0.0
+        app.reset()
+        assert set(app.sim.bodies) == {"ground", "plate", "ball", "ball_two"}
+        assert app.sim.world.pose("ball")[0][0] == pytest.approx(0.1, abs=1e-12)
+        assert not app.scene_changed
+        # An invalid scene edit: the start-up error, and the scene running stays.
+        scene_path.write_text(SCENE.format(x=0.0).replace("radius = 0.04", "radius = -1"))
+        _, lines = _settle(app, 5.0)
+        assert lines == [f"{scene_path}: [body.ball] key 'radius' = -1: must be >= 0.001"]
+        assert not app.scene_changed
+        app.reset()
+        assert "ball_two" in app.sim.bodies
+    finally:
+        app.close()
+
+
+def test_the_watcher_reads_a_save_once_whole(tmp_path):
+    """An editor's save in two writes: the half-written file seen by one poll is not reported;
+    the whole file, seen by two, is, once."""
+    from dentdemo.app.watch import FileWatcher
+
+    path = tmp_path / "f.toml"
+    path.write_text("a = 1\n")
+    watcher = FileWatcher((path,))
+    path.write_text("a = ")
+    assert watcher.poll(0.0) == []
+    path.write_text("a = 2\n")
+    assert watcher.poll(0.2) == []  # changed again since the last poll: not settled
+    assert watcher.poll(0.3) == []  # too soon after the last poll
+    assert watcher.poll(0.4) == [path]
+    assert watcher.poll(0.6) == []
+    path.unlink()
+    watcher.poll(1.0)
+    assert watcher.poll(2.0) == [path]  # gone: reported, and the reader names the file
+
+
+WINDOW_SCENE_SECONDS = 12.0  # simulated, one dt a frame: 3.5 s of wall time here (llvmpipe)
+
+
+def test_real_window_reloads_and_reports_a_bad_edit(xvfb, tmp_path):
+    user, scene_path = _files(tmp_path)
+    env = {**os.environ, "DISPLAY": xvfb}
+    command = [
+        sys.executable,
+        "-m",
+        "dentdemo",
+        "demo",
+        "--materials",
+        str(user),
+        "--scene",
+        str(scene_path),
+        "--size",
+        "320x180",
+        "--quality",
+        "low",
+        "--exit-after",
+        str(WINDOW_SCENE_SECONDS),
+    ]
+    proc = subprocess.Popen(command, env=env, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    assert proc.stderr is not None
+    seen: list[str] = []
+
+    def wait_for(prefix: str) -> str:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            line = proc.stderr.readline()
+            if not line:
+                break
+            seen.append(line.rstrip("\n"))
+            if line.startswith(prefix):
+                return line.rstrip("\n")
+        proc.kill()
+        raise AssertionError(f"no line starting {prefix!r}; stderr so far: {seen}")
+
+    try:
+        wait_for("dentdemo: watching")
+        user.write_text(USER.format(density=7850, restitution=0.3))
+        assert wait_for("dentdemo: reloaded") == f"dentdemo: reloaded {user} (2 materials)"
+        user.write_text(USER.format(density=7850, restitution=1.5))
+        assert wait_for(str(user)) == (
+            f"{user}: [materials.steel] key 'restitution' = 1.5: must be < 1"
+        )
+        rest = proc.stderr.read()
+        assert proc.wait(timeout=120) == 0, seen + [rest]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
