@@ -21,10 +21,10 @@ from PIL import Image
 
 import dentdemo
 from cli_helpers import dentdemo as run_dentdemo
-from dentdemo.app.scenery import plate_sides
 from dentdemo.app.simulation import Simulation
 from dentdemo.errors import DentdemoError
 from dentdemo.gltf import HEIGHT_KEY, quaternion, trs
+from dentdemo.mesh.shapes import plate_sides
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
 from dentdemo.model.shapes import Plane, Plate

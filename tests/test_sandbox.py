@@ -72,8 +72,9 @@ def test_dents_change_the_image_only_near_impacts(renders, gl):
     dist = np.min(
         np.hypot(xs[:, None] - pixels[None, :, 0], ys[:, None] - pixels[None, :, 1]), axis=1
     )
-    # Every changed pixel lies within 30 px (a dent plus the ball sitting in it) of an impact.
-    assert np.percentile(dist, 99) < 30 and dist.max() < 45
+    # Every changed pixel lies within 35 px (a dent plus the ball sitting in it: a ball whose
+    # collision shape follows a deep dent sits on its flat, its whole outline lower) of an impact.
+    assert np.percentile(dist, 99) < 35 and dist.max() < 45
     sim.close()
 
 

@@ -15,14 +15,9 @@ from numpy.typing import NDArray
 from dentdemo.app.simulation import SimBody, Simulation
 from dentdemo.carve.surface import GpuMesh
 from dentdemo.gl.context import GLContext
-from dentdemo.mesh import primitives
-from dentdemo.mesh.mesh import Mesh
-from dentdemo.mesh.shapes import coarser_levels
+from dentdemo.mesh.shapes import coarser_levels, plate_sides
 from dentdemo.model.shapes import Plate, Shape
 from dentdemo.render.frame import MeshLevel
-
-#: How far below a plate's top face its sides' top is, m (no coplanar faces with the dented top).
-SIDES_GAP = 2e-4
 
 
 @dataclass
@@ -44,14 +39,6 @@ class DrawnParts:
             self.texture.release()
         for level in self.coarser:
             level.mesh.release()
-
-
-def plate_sides(plate: Plate) -> Mesh:
-    """A plate's body below its top face (body space: the top face is y = 0), metres."""
-    t = plate.thickness
-    sides = primitives.box((plate.side, t, plate.side))
-    sides.positions[:, 1] -= t / 2 + SIDES_GAP
-    return sides
 
 
 class Scenery:

@@ -14,12 +14,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dentdemo import outputs
+from dentdemo.app.reshape import DentProxy, shape_field
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
 from dentdemo.gl.context import GLContext
 from dentdemo.mesh.mesh import Mesh
-from dentdemo.mesh.shapes import shape_mesh
+from dentdemo.mesh.shapes import plate_sides, shape_mesh
 from dentdemo.model.impulse import dent_depth
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
@@ -117,6 +118,8 @@ class Simulation:
         self._time_debt = 0.0
         #: Per body: how many dents and the deepest press (the panel's selection).
         self.dents: dict[str, DentStats] = {}
+        #: Per dynamic body that took a dent: its surface as pressed (its collision shape).
+        self.proxies: dict[str, DentProxy] = {}
         self.bodies: dict[str, SimBody] = {}
         self.world: PhysicsWorld = build_world(scene)
         for spec in scene.bodies:
@@ -169,6 +172,7 @@ class Simulation:
 
     def remove_body(self, body_id: str) -> None:
         self.dents.pop(body_id, None)
+        self.proxies.pop(body_id, None)
         self.world.remove_body(body_id)
         _release_body(self.bodies.pop(body_id))
         self.queue = deque(
@@ -219,6 +223,7 @@ class Simulation:
             if gone in self.bodies:
                 _release_body(self.bodies.pop(gone))
                 self.dents.pop(gone, None)
+                self.proxies.pop(gone, None)
         self.world.removed.clear()
         physics_ms = (time.perf_counter() - start) * 1e3
         self.last_impacts = impacts
@@ -260,7 +265,44 @@ class Simulation:
                         stats = self.dents.setdefault(body, DentStats())
                         stats.count += 1
                         stats.deepest = max(stats.deepest, depth)
+                self._follow_dents(request)
         return len(taken)
+
+    def _follow_dents(self, request: CarveRequest) -> None:
+        """Press the dynamic bodies' collision proxies as the carve pressed their maps, and give
+        a body whose dents grew deep enough the hull of its dented surface (app/reshape.py)."""
+        impact = request.impact
+        sides = (
+            (
+                impact.body_a,
+                request.model_a,
+                impact.body_b,
+                request.model_b,
+                -impact.normal,
+                request.depth_a,
+            ),
+            (
+                impact.body_b,
+                request.model_b,
+                impact.body_a,
+                request.model_a,
+                impact.normal,
+                request.depth_b,
+            ),
+        )
+        for body_id, model, tool_id, tool_model, direction, depth in sides:
+            body, tool = self.bodies.get(body_id), self.bodies.get(tool_id)
+            if depth <= 0.0 or body is None or tool is None or body.spec.static:
+                continue
+            field = shape_field(tool.spec.shape, tool_model)
+            if field is None:
+                continue
+            proxy = self.proxies.get(body_id)
+            if proxy is None:
+                proxy = self.proxies[body_id] = DentProxy.of(body.mesh)
+            proxy.press(model, field, direction, depth, body.spec.material.max_dent_depth)
+            if proxy.due():
+                self.world.set_hull(body_id, *proxy.rebuilt())
 
     def advance(self, seconds: float, max_steps: int = 4) -> int:
         """Steps owed for `seconds` of wall time times the time scale (window use)."""
@@ -320,6 +362,7 @@ class Simulation:
         self.carved_points.clear()
         self.last_hit = None
         self.dents.clear()
+        self.proxies.clear()
         self.stats = SimStats()
         self.ball_count = 0
         self._time_debt = 0.0
@@ -346,7 +389,6 @@ class Simulation:
         with tangents, the presets' materials, the meshes' own images, and the normal and height
         maps of the bodies that take dents, read back from the GPU. The ground plane (infinite)
         is left out."""
-        from dentdemo.app.scenery import plate_sides
         from dentdemo.gltf import GltfBody, GltfPart, dented_part, write_gltf
 
         bodies = []

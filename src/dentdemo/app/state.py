@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo import outputs
+from dentdemo.app.reshape import DentProxy
 from dentdemo.app.simulation import (
     CARVED_POINTS_KEPT,
     CarveRequest,
@@ -147,6 +148,15 @@ def _snapshot(sim: Simulation) -> tuple[dict[str, Any], dict[str, bytes], dict[s
             }
             for r in sim.queue
         ],
+        "shapes": {
+            body_id: {
+                "points": np.nonzero(proxy.inward)[0].tolist(),
+                "inward": proxy.inward[proxy.inward > 0].tolist(),
+                "shaped": proxy.shaped[proxy.inward > 0].tolist(),
+                "rebuilt_at": proxy.rebuilt_at,
+            }
+            for body_id, proxy in sorted(sim.proxies.items())
+        },
         "carved_points": [_plain(p) for p in sim.carved_points],
         "stats": dataclasses.asdict(sim.stats),
         "ball_count": sim.ball_count,
@@ -197,6 +207,9 @@ class SavedState:
     #: Each dentable body's height map, float32 [v, u], metres.
     heights: dict[str, NDArray[np.float32]]
     queue: tuple[CarveRequest, ...]
+    #: Collision shapes that follow dents (app/reshape.py), by body: the mesh vertices pressed
+    #: in, how far (m), how far the geom holds them, the deepest point at the last rebuild (m).
+    shapes: dict[str, tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], float]]
     #: World metres.
     carved_points: tuple[NDArray[np.float64], ...]
     stats: SimStats
@@ -534,6 +547,7 @@ def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> Sa
         _request(TableReader(source, f"queue[{i}]", entry), specs, world.order)
         for i, entry in enumerate(top.items("queue", ENTRIES_MAX))
     )
+    shapes = _shapes(sim, top, specs, world.order) if top.has("shapes") else {}
     points = []
     for i, point in enumerate(top.items("carved_points", CARVED_POINTS_KEPT)):
         p = TableReader(source, f"carved_points[{i}]", {"point": point})
@@ -544,12 +558,55 @@ def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> Sa
         removed=tuple(spec.id for spec in sim.scene.bodies if spec.id not in world.order),
         heights=heights,
         queue=queue,
+        shapes=shapes,
         carved_points=tuple(points),
         stats=_stats(top.table_at("stats")),
         ball_count=top.integer("ball_count", min_value=0, max_value=COUNT_MAX),
     )
     top.finish()
     return state
+
+
+def _shapes(
+    sim: Simulation, top: TableReader, specs: dict[str, BodySpec], order: list[str]
+) -> dict[str, tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], float]]:
+    """`shapes`: per dynamic dentable body of world.order, its pressed vertices (strictly
+    increasing indices into its mesh), how far each is in and how far its geom holds it
+    (0 <= shaped <= inward <= the material's deepest dent), the depth at the last rebuild."""
+    t = top.table_at("shapes")
+    out = {}
+    for body_id in t.table:
+        spec = specs.get(body_id)
+        if body_id not in order or spec is None or spec.static or not spec.dentable:
+            raise t.fail(body_id, "is not a dynamic dentable body of world.order")
+        r = t.table_at(body_id)
+        body = sim.bodies.get(body_id)
+        vertices = len((body.mesh if body is not None else shape_mesh(spec.shape)).positions)
+        deepest = spec.material.max_dent_depth
+        points = r.items("points", vertices)
+        if not all(isinstance(k, int) and not isinstance(k, bool) for k in points) or (
+            points and (points[0] < 0 or points[-1] >= vertices or np.any(np.diff(points) <= 0))
+        ):
+            raise r.fail("points", f"must be increasing vertex indices in [0, {vertices})")
+        values = {}
+        for key in ("inward", "shaped"):
+            v = r.items(key, vertices)
+            ok = len(v) == len(points) and all(
+                isinstance(x, int | float) and not isinstance(x, bool) for x in v
+            )
+            array = np.asarray(v, dtype=np.float64) if ok else np.zeros(0)
+            if not ok or not np.all(np.isfinite(array)):
+                raise r.fail(key, f"must be {len(points)} finite numbers, one a point")
+            if np.any(array < 0) or np.any(array > deepest):
+                raise r.fail(key, f"must lie in [0, {deepest:g}] m (the material's deepest dent)")
+            values[key] = array
+        if np.any(values["shaped"] > values["inward"]):
+            raise r.fail("shaped", "must not exceed 'inward' (dents only deepen)")
+        rebuilt = r.number("rebuilt_at", min_value=0.0, max_value=deepest)
+        r.finish()
+        out[body_id] = (np.asarray(points, np.int64), values["inward"], values["shaped"], rebuilt)
+    t.finish()
+    return out
 
 
 def read_state(sim: Simulation, directory: Path) -> SavedState:
@@ -585,6 +642,12 @@ def apply_state(sim: Simulation, state: SavedState) -> None:
         body = sim.bodies[body_id]
         body.maps.height.write(height.tobytes())
         rebuild_all_normals(sim.gl, body.gpu_mesh, body.maps)
+    for body_id, (points, inward, shaped, rebuilt_at) in state.shapes.items():
+        proxy = sim.proxies[body_id] = DentProxy.of(sim.bodies[body_id].mesh)
+        proxy.inward[points], proxy.shaped[points] = inward, shaped
+        proxy.rebuilt_at = rebuilt_at
+        if rebuilt_at > 0.0:
+            sim.world.set_hull(body_id, *proxy.surface())
     sim.queue = deque(state.queue)
     sim.carved_points.clear()
     sim.carved_points.extend(state.carved_points)

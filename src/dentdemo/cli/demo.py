@@ -96,9 +96,10 @@ def run(args: argparse.Namespace) -> int:
     if gltf is not None:
         window.app.gltf_path = gltf
     window.app.selected = args.select
-    watched = [*args.materials, path]
     window.app.watch([Path(p) for p in args.materials], path)
-    log.warn(f"dentdemo: watching {', '.join(map(str, watched))}: saved changes apply live")
+    if args.materials:  # files the user named (the scene is watched too, silently)
+        watched = [*args.materials, path]
+        log.warn(f"dentdemo: watching {', '.join(map(str, watched))}: saved changes apply live")
     return window.run(shot, exit_after, gltf if exit_after is not None else None)
 
 

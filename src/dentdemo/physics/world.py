@@ -19,7 +19,7 @@ from dentdemo import interrupt
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
 from dentdemo.model.shapes import Capsule, Cylinder, MeshFile, Plane, Sphere
-from dentdemo.physics.geoms import body_mass, destroy_geom, make_geom
+from dentdemo.physics.geoms import _trimesh, body_mass, destroy_geom, make_geom
 from dentdemo.physics.ode import Handle, fast, ode
 
 MAX_CONTACTS = 8
@@ -280,6 +280,31 @@ class PhysicsWorld:
             ode.dMassAdjust(ctypes.byref(mass), mass.mass * spec.material.density / old_density)
             ode.dBodySetMass(record.body, ctypes.byref(mass))
             record.mass = float(mass.mass)
+
+    def set_hull(self, body_id: str, positions: NDArray, indices: NDArray) -> None:
+        """Make a dynamic body's collision shape the closed triangles `positions` (n, 3), in its
+        local frame, metres, and `indices` (m, 3), wound outwards: its dented surface
+        (app/reshape.py). Its mass, inertia, pose and velocities are kept, and so is its place
+        in the collision space's order (collision order drives QuickStep)."""
+        record = self.bodies[body_id]
+        if record.body is None:
+            raise ValueError(f"body '{body_id}' is static: its shape does not follow its dents")
+        old = record.geom
+        order = [ode.dSpaceGetGeom(self.space, i) for i in range(ode.dSpaceGetNumGeoms(self.space))]
+        at = next(i for i, g in enumerate(order) if _addr(g) == _addr(old))
+        geom, keep = _trimesh(self.space, positions, indices)
+        ode.dGeomSetBody(geom, record.body)
+        if np.any(record.com_offset != 0):
+            ode.dGeomSetOffsetPosition(geom, *(-record.com_offset))
+        self._by_geom.pop(_addr(old), None)
+        self._pair_surface = {k: v for k, v in self._pair_surface.items() if _addr(old) not in k}
+        destroy_geom(old, record.keep_alive)
+        # The new geom takes the old one's place (dSpaceAdd puts a geom at the front).
+        for g in reversed([*order[:at], geom, *order[at + 1 :]]):
+            ode.dSpaceRemove(self.space, g)
+            ode.dSpaceAdd(self.space, g)
+        record.geom, record.keep_alive = geom, keep
+        self._by_geom[_addr(geom)] = record
 
     def set_pose(self, body_id: str, position: NDArray, quaternion: NDArray) -> None:
         record = self.bodies[body_id]

@@ -1,0 +1,197 @@
+"""The collision shape follows deep dents (issue 21, item 4), on the CPU and without reading a map.
+
+Each dynamic body that takes dents keeps a proxy of its surface: points in body-local metres with
+their outward normals and the body's thickness under them. A press moves the proxy's points the
+way the carve moves texels (docs/carve.md, pass 4): inwards along their normal until they leave
+the solid the tool sweeps, never deeper than the material's bound or the body's thickness. The
+tool's solid is known in closed form as a signed distance (a sphere, capsule, box, plate or the
+ground); a loaded mesh as a tool leaves the proxy alone. Once the deepest point has moved more
+than RESHAPE_FRACTION of the body's size, the body's ODE geom becomes its mesh with the moved
+points (physics/world.py `set_hull`): a ball flattened by a plate rests on its flat.
+
+A trimesh of the dented surface, not its convex hull: the hull needs qhull (scipy, a dependency
+of 40 MB for this alone), fills the pits a small ball leaves, and gained nothing in the tests
+(the flattened ball rests on either).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.mesh.mesh import Mesh
+from dentdemo.mesh.thickness import vertex_thickness
+
+#: A body's collision shape is rebuilt once its deepest dent passes this share of its size (the
+#: radius of its bounding sphere about its local origin), and again each time it deepens by this
+#: share more.
+RESHAPE_FRACTION = 0.05
+
+#: Bisection steps for where a point leaves the tool's solid (the interval halves each step:
+#: 2^-30 of the depth bound).
+_STEPS = 30
+
+Field = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+
+
+def sphere_field(centre: NDArray[np.float64], radius: float) -> Field:
+    """Signed distance to a sphere (world metres, < 0 inside)."""
+    return lambda p: np.linalg.norm(p - centre, axis=1) - radius
+
+
+def capsule_field(a: NDArray[np.float64], b: NDArray[np.float64], radius: float) -> Field:
+    """Signed distance to the sphere of `radius` swept from `a` to `b`."""
+    axis = b - a
+    length2 = float(axis @ axis)
+
+    def field(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        t = np.clip(((p - a) @ axis) / length2, 0.0, 1.0) if length2 > 0 else np.zeros(len(p))
+        return np.linalg.norm(p - (a + t[:, None] * axis), axis=1) - radius
+
+    return field
+
+
+def box_field(model: NDArray[np.float64], half: NDArray[np.float64]) -> Field:
+    """Signed distance to a box of half extents `half` about the origin of `model` (world from
+    local, a rotation and a translation)."""
+    rotation, origin = model[:3, :3], model[:3, 3]
+
+    def field(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        q = np.abs((p - origin) @ rotation) - half
+        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+        return outside + np.minimum(q.max(axis=1), 0.0)
+
+    return field
+
+
+def ground_field(height: float) -> Field:
+    """Signed distance to the half-space below y = `height`."""
+    return lambda p: p[:, 1] - height
+
+
+def cylinder_field(model: NDArray[np.float64], radius: float, length: float) -> Field:
+    """Signed distance to a solid cylinder about local z (`length` long, centred) posed by
+    `model` (a rotation and a translation)."""
+    rotation, origin = model[:3, :3], model[:3, 3]
+
+    def field(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        q = (p - origin) @ rotation
+        d = np.stack([np.hypot(q[:, 0], q[:, 1]) - radius, np.abs(q[:, 2]) - length / 2], 1)
+        return np.linalg.norm(np.maximum(d, 0.0), axis=1) + np.minimum(d.max(axis=1), 0.0)
+
+    return field
+
+
+def shape_field(shape: object, model: NDArray[np.float64]) -> Field | None:
+    """The solid of a scene shape posed by `model` at first touch (None: a loaded mesh, whose
+    solid has no closed form here). Shapes as mesh/primitives.py and physics/geoms.py build
+    them: capsules and cylinders along local z, a plate's top face at local y = 0."""
+    from dentdemo.model.shapes import Box, Capsule, Cylinder, Plane, Plate, Sphere
+
+    match shape:
+        case Sphere(radius=r):
+            return sphere_field(model[:3, 3], r)
+        case Capsule(radius=r, length=length):
+            ends = np.array([[0.0, 0.0, -length / 2, 1.0], [0.0, 0.0, length / 2, 1.0]])
+            a, b = (ends @ model.T)[:, :3]
+            return capsule_field(a, b, r)
+        case Box(size=size):
+            return box_field(model, np.asarray(size, dtype=np.float64) / 2)
+        case Plate(side=side, thickness=thickness):
+            centre = model.copy()
+            centre[:3, 3] = model[:3, 3] - model[:3, 1] * thickness / 2  # below the top face
+            return box_field(centre, np.array([side / 2, thickness / 2, side / 2]))
+        case Cylinder(radius=r, length=length):
+            return cylinder_field(model, r, length)
+        case Plane():
+            return ground_field(float(model[1, 3]))
+    return None
+
+
+@dataclass
+class DentProxy:
+    """A dynamic body's surface points and how far each has been pressed in (metres)."""
+
+    points: NDArray[np.float64]  # (n, 3) body-local metres: the body's mesh's vertices
+    normals: NDArray[np.float64]  # (n, 3) unit, outward
+    thickness: NDArray[np.float64]  # (n,) metres (mesh/thickness.py)
+    triangles: NDArray[np.int64]  # (m, 3) the mesh's, wound outwards
+    size: float  # bounding radius about the local origin, metres
+    inward: NDArray[np.float64] = field(init=False)
+    #: `inward` when the geom was last rebuilt: what the collision shape holds.
+    shaped: NDArray[np.float64] = field(init=False)
+    #: The deepest point's depth when the geom was last rebuilt (0: never), metres.
+    rebuilt_at: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.inward = np.zeros(len(self.points))
+        self.shaped = np.zeros(len(self.points))
+
+    @classmethod
+    def of(cls, mesh: Mesh) -> DentProxy:
+        normals = mesh.normals.astype(np.float64)
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+        return cls(
+            mesh.positions.astype(np.float64),
+            normals,
+            vertex_thickness(mesh).astype(np.float64),
+            mesh.indices.astype(np.int64),
+            mesh.bounding_radius,
+        )
+
+    @property
+    def deepest(self) -> float:
+        return float(self.inward.max()) if len(self.inward) else 0.0
+
+    def press(
+        self,
+        model: NDArray[np.float64],
+        tool: Field,
+        direction: NDArray[np.float64],
+        advance: float,
+        max_depth: float,
+    ) -> None:
+        """The body posed by `model` (world from local) at first touch, pressed by the solid
+        `tool` moved `advance` metres along `direction` (unit, world): each point inside it moves
+        inwards along its normal until it leaves it, at most `max_depth` or the body's thickness
+        under it; dents only deepen."""
+        linear, origin = model[:3, :3], model[:3, 3]
+        world = self.points @ linear.T + origin
+        normal = self.normals @ linear.T
+        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
+        shift = np.asarray(direction, dtype=np.float64) * advance
+
+        def inside(a: NDArray[np.float64], k: NDArray[np.int64]) -> NDArray[np.bool_]:
+            return tool(world[k] - a[:, None] * normal[k] - shift) < 0.0
+
+        bound = np.minimum(max_depth, self.thickness)
+        k = np.nonzero(inside(self.inward, np.arange(len(self.points))))[0]
+        if len(k) == 0:
+            return
+        lo, hi = self.inward[k].copy(), bound[k].copy()
+        still = inside(hi, k)  # past the bound and still inside: the bound
+        for _ in range(_STEPS):
+            mid = 0.5 * (lo + hi)
+            deeper = inside(mid, k)
+            lo = np.where(deeper, mid, lo)
+            hi = np.where(deeper, hi, mid)
+        self.inward[k] = np.maximum(self.inward[k], np.where(still, bound[k], hi))
+
+    def due(self) -> bool:
+        """Whether the geom should be rebuilt now (see RESHAPE_FRACTION)."""
+        return self.deepest > self.rebuilt_at + RESHAPE_FRACTION * self.size
+
+    def rebuilt(self) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """Mark the geom rebuilt from the points as they are now; returns that surface."""
+        self.shaped = self.inward.copy()
+        self.rebuilt_at = self.deepest
+        return self.surface()
+
+    def surface(self) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """The surface the collision shape holds (the points as of the last rebuild):
+        (vertices (n, 3), triangles (m, 3)), body-local metres, wound outwards (the mesh's
+        triangles over the moved points)."""
+        return self.points - self.shaped[:, None] * self.normals, self.triangles
