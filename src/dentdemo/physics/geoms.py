@@ -50,7 +50,7 @@ def make_geom(
         case MeshFile():
             if mesh_arrays is None:
                 raise ValueError(f"body '{spec.id}': a mesh shape needs its triangles")
-            geom, keep = _trimesh(space, *mesh_arrays)
+            geom, keep = trimesh_geom(space, *mesh_arrays)
         case shape:
             raise ValueError(f"not a shape: {shape!r}")
     return geom, keep, com
@@ -103,7 +103,7 @@ def destroy_geom(geom: Handle, keep: list) -> None:
         ode.dGeomTriMeshDataDestroy(keep[2])
 
 
-def _trimesh(space: Handle, positions: NDArray, indices: NDArray) -> tuple[Handle, list]:
+def trimesh_geom(space: Handle, positions: NDArray, indices: NDArray) -> tuple[Handle, list]:
     verts = np.ascontiguousarray(positions, dtype=np.float64)
     tris = np.ascontiguousarray(indices, dtype=np.uint32)
     data = ode.dGeomTriMeshDataCreate()

@@ -19,7 +19,7 @@ from dentdemo import interrupt
 from dentdemo.model.impulse import pair_impulses
 from dentdemo.model.scene import BodySpec, PhysicsSpec
 from dentdemo.model.shapes import Capsule, Cylinder, MeshFile, Plane, Sphere
-from dentdemo.physics.geoms import _trimesh, body_mass, destroy_geom, make_geom
+from dentdemo.physics.geoms import body_mass, destroy_geom, make_geom, trimesh_geom
 from dentdemo.physics.ode import Handle, fast, ode
 
 MAX_CONTACTS = 8
@@ -292,7 +292,7 @@ class PhysicsWorld:
         old = record.geom
         order = [ode.dSpaceGetGeom(self.space, i) for i in range(ode.dSpaceGetNumGeoms(self.space))]
         at = next(i for i, g in enumerate(order) if _addr(g) == _addr(old))
-        geom, keep = _trimesh(self.space, positions, indices)
+        geom, keep = trimesh_geom(self.space, positions, indices)
         ode.dGeomSetBody(geom, record.body)
         if np.any(record.com_offset != 0):
             ode.dGeomSetOffsetPosition(geom, *(-record.com_offset))
