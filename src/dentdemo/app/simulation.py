@@ -17,6 +17,7 @@ from dentdemo import outputs
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
+from dentdemo.carve.undo import UndoLog, restore_pristine
 from dentdemo.gl.context import GLContext
 from dentdemo.mesh import primitives
 from dentdemo.mesh.mesh import Mesh
@@ -110,6 +111,10 @@ class Simulation:
         self.carve_budget = carve_budget
         self.time_scale = 1.0
         self.carver = Carver(gl)
+        #: Each carved batch (one frame's queue) snapshotted on the GPU for undo (carve/undo.py);
+        #: not saved with the state: a reset or a load empties it.
+        self.undo_log = UndoLog(gl)
+        self.carver.undo_log = self.undo_log
         self.queue: deque[CarveRequest] = deque()
         self.stats = SimStats()
         self.last_impacts: list[Impact] = []
@@ -184,7 +189,7 @@ class Simulation:
 
     def remove_body(self, body_id: str) -> None:
         self.world.remove_body(body_id)
-        _release_body(self.bodies.pop(body_id))
+        self._drop_body(body_id)
         self.queue = deque(
             r for r in self.queue if body_id not in (r.impact.body_a, r.impact.body_b)
         )
@@ -199,7 +204,7 @@ class Simulation:
         impacts = self.world.step()
         for gone in self.world.removed:
             if gone in self.bodies:
-                _release_body(self.bodies.pop(gone))
+                self._drop_body(gone)
         self.world.removed.clear()
         physics_ms = (time.perf_counter() - start) * 1e3
         self.last_impacts = impacts
@@ -282,9 +287,32 @@ class Simulation:
         contact = ContactFrame(impact.point, -impact.normal)
         return request, (target, tool, contact, request.depth_a, request.depth_b)
 
+    def _drop_body(self, body_id: str) -> None:
+        body = self.bodies.pop(body_id)
+        self.undo_log.forget(body.maps)
+        _release_body(body)
+
+    # -- undo and repair -----------------------------------------------------------------------
+    def undo(self) -> bool:
+        """Take back the last carved batch (one frame's hits, both bodies of each, bit for bit)
+        from the GPU snapshots; False when none is left (see carve/undo.py for the bounds)."""
+        return self.undo_log.undo()
+
+    def repair(self, body_id: str) -> None:
+        """Give a body back its pristine maps (height 0, or its scene bump map, and their
+        normals); its part of the undo history is dropped."""
+        body = self.bodies[body_id]
+        start = None
+        if body.spec.dentable and body.spec.bump_map:
+            size = body.maps.size[0]
+            start = load_height_png(Path(body.spec.bump_map), size, body.spec.bump_height)
+        self.undo_log.forget(body.maps)
+        restore_pristine(self.gl, body.gpu_mesh, body.maps, start)
+
     # -- lifecycle -----------------------------------------------------------------------------
     def reset(self) -> None:
-        """Back to the scene as loaded: bodies, poses and pristine maps."""
+        """Back to the scene as loaded: bodies, poses and pristine maps (no undo history)."""
+        self.undo_log.clear()
         self._release_bodies()
         self.world.close()
         self.bodies.clear()
@@ -339,6 +367,7 @@ class Simulation:
             _release_body(body)
 
     def close(self) -> None:
+        self.undo_log.release()
         self._release_bodies()
         self.carver.release()
         self.world.close()
