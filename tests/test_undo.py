@@ -134,13 +134,21 @@ def test_snapshot_rectangles_hold_every_texel_a_hit_writes(gl):
 
 
 def test_merged_rects_keep_far_boxes_apart():
-    """Boxes (x0, y0, x1, y1) in 8-texel cells: two overlapping ones near the origin make one
-    rectangle, their union (0, 0)-(20, 12); one far off stays its own; an L of two boxes that
-    no empty row or column separates is one rectangle, their bounding box."""
+    """Boxes (x0, y0, x1, y1), texels: two overlapping ones near the origin make one rectangle,
+    their union (0, 0)-(20, 12); one 88 texels off stays its own; an L of two boxes that no
+    empty row or column separates is one rectangle, their bounding box; boxes 7 texels apart
+    (under the 8-texel gap) merge, 8 apart do not."""
     boxes = np.array([[0, 0, 10, 10], [100, 100, 110, 120], [5, 5, 20, 12]])
     assert sorted(merged_rects(boxes)) == [(0, 0, 20, 12), (100, 100, 10, 20)]
     ell = np.array([[0, 0, 10, 40], [0, 30, 40, 40]])
     assert merged_rects(ell) == [(0, 0, 40, 40)]
+    near = np.array([[0, 0, 10, 10], [17, 0, 27, 10]])
+    assert merged_rects(near) == [(0, 0, 27, 10)]
+    apart = np.array([[0, 0, 10, 10], [18, 0, 28, 10]])
+    assert sorted(merged_rects(apart)) == [(0, 0, 10, 10), (18, 0, 10, 10)]
+    # Split along v, then one band split along u: three rectangles.
+    three = np.array([[0, 0, 10, 10], [50, 0, 60, 10], [0, 50, 60, 60]])
+    assert sorted(merged_rects(three)) == [(0, 0, 10, 10), (0, 50, 60, 10), (50, 0, 10, 10)]
     assert merged_rects(np.zeros((0, 4), np.int64)) == []
 
 

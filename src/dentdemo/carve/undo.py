@@ -13,9 +13,9 @@ Where a map's rectangles come from: passes 4 and 5 draw only the triangles `came
 and `camera.target_gutter` in texture space; the first write texel centres inside those triangles,
 the gutter draws (texel.geom) each triangle's texel bounding box grown by one texel. So every
 texel a job writes lies inside its triangles' uv bounding boxes grown by `MARGIN` texels; the
-boxes of all jobs on one map are merged into a few rectangles (split along empty rows and columns
-of `CELL`-texel cells, so that a dent across two far charts of an atlas keeps two small
-rectangles), then each is shrunk to the boxes it holds.
+boxes of all jobs on one map are merged into a few rectangles (split where `GAP` texels or more
+of rows or columns hold no box, so that a dent across two far charts of an atlas keeps two small
+rectangles).
 """
 
 from __future__ import annotations
@@ -47,8 +47,8 @@ SNAPSHOT_BYTES_PER_TEXEL = 4 + 4
 #: Texels added on each side of a triangle's uv bounding box: the gutter draw grows it by one
 #: texel (texel.geom), one more for the rounding of the box's corners.
 MARGIN = 2
-#: Side of the cells in which boxes are merged, texels.
-CELL = 8
+#: Boxes farther apart than this (texels) along u or v get rectangles of their own.
+GAP = 8
 
 #: A rectangle of a map: (x, y, width, height), texels; x along +u, y along +v (row 0 is v = 0).
 Rect = tuple[int, int, int, int]
@@ -76,59 +76,29 @@ def triangle_boxes(
     return boxes[(boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])]
 
 
-def merged_rects(boxes: NDArray[np.int64], cell: int = CELL) -> list[Rect]:
-    """Disjoint rectangles that together hold every box: the boxes' `cell`-texel cells split
-    along empty rows and columns (again within each part) until no part splits, each part then
-    shrunk to the union of the boxes in it (a box never straddles an empty row or column)."""
-    if len(boxes) == 0:
-        return []
-    cells_lo = boxes[:, :2] // cell  # (x, y) cells
-    cells_hi = (boxes[:, 2:] - 1) // cell + 1  # half-open
-    origin = cells_lo.min(axis=0)
-    lo, hi = cells_lo - origin, cells_hi - origin
-    width, height = hi.max(axis=0)
-    # Coverage of the cells by the boxes: a 2D difference array, summed along both axes.
-    diff = np.zeros((height + 1, width + 1), np.int32)
-    np.add.at(diff, (lo[:, 1], lo[:, 0]), 1)
-    np.add.at(diff, (lo[:, 1], hi[:, 0]), -1)
-    np.add.at(diff, (hi[:, 1], lo[:, 0]), -1)
-    np.add.at(diff, (hi[:, 1], hi[:, 0]), 1)
-    covered = diff.cumsum(axis=0).cumsum(axis=1)[:height, :width] > 0
-    parts: list[tuple[int, int, int, int]] = []
-    _split(covered, 0, 0, height, width, parts)
-    rects = []
-    for y0, x0, y1, x1 in parts:
-        inside = (lo[:, 0] >= x0) & (lo[:, 0] < x1) & (lo[:, 1] >= y0) & (lo[:, 1] < y1)
-        held = boxes[inside]
-        bx0, by0 = held[:, :2].min(axis=0)
-        bx1, by1 = held[:, 2:].max(axis=0)
-        rects.append((int(bx0), int(by0), int(bx1 - bx0), int(by1 - by0)))
-    return rects
+def merged_rects(boxes: NDArray[np.int64], gap: int = GAP) -> list[Rect]:
+    """Disjoint rectangles that together hold every box (x0, y0, x1, y1): the boxes split into
+    groups along a row or column band that no box touches and that is at least `gap` texels
+    wide (again within each group, rows first), each group's bounding box one rectangle."""
+    out: list[Rect] = []
+    if len(boxes):
+        _split(boxes, gap, out)
+    return out
 
 
-def _runs(indices: NDArray[np.intp]) -> list[tuple[int, int]]:
-    """Consecutive runs of sorted indices as half-open (start, end) pairs."""
-    breaks = np.flatnonzero(np.diff(indices) > 1)
-    starts = np.concatenate([[indices[0]], indices[breaks + 1]])
-    ends = np.concatenate([indices[breaks], [indices[-1]]]) + 1
-    return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
-
-
-def _split(covered: NDArray[np.bool_], y0: int, x0: int, y1: int, x1: int, out: list) -> None:
-    """Append to `out` the parts (y0, x0, y1, x1) of covered cells in the block given."""
-    block = covered[y0:y1, x0:x1]
-    rows, cols = np.flatnonzero(block.any(axis=1)), np.flatnonzero(block.any(axis=0))
-    if len(rows) == 0:
-        return
-    row_runs, col_runs = _runs(rows), _runs(cols)
-    if len(row_runs) == 1 and len(col_runs) == 1:
-        out.append((y0 + rows[0], x0 + cols[0], y0 + rows[-1] + 1, x0 + cols[-1] + 1))
-    elif len(row_runs) > 1:
-        for a, b in row_runs:
-            _split(covered, y0 + a, x0, y0 + b, x1, out)
-    else:
-        for a, b in col_runs:
-            _split(covered, y0, x0 + a, y1, x0 + b, out)
+def _split(boxes: NDArray[np.int64], gap: int, out: list[Rect]) -> None:
+    for axis in (1, 0):  # along v (rows), then along u (columns)
+        lo, hi = boxes[:, axis], boxes[:, axis + 2]
+        order = np.argsort(lo, kind="stable")
+        reach = np.maximum.accumulate(hi[order])  # the farthest end of the boxes so far
+        breaks = np.flatnonzero(lo[order][1:] >= reach[:-1] + gap) + 1
+        if len(breaks):
+            for group in np.split(order, breaks):
+                _split(boxes[group], gap, out)
+            return
+    x0, y0 = boxes[:, :2].min(axis=0)
+    x1, y1 = boxes[:, 2:].max(axis=0)
+    out.append((int(x0), int(y0), int(x1 - x0), int(y1 - y0)))
 
 
 def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
