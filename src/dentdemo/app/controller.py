@@ -114,8 +114,10 @@ class DemoController:
         """Resume a saved state (F9, panel "load state"); a bad one changes nothing."""
         from dentdemo.app.state import load_state
 
-        done = f"loaded {directory}/ (undo history is not saved: cleared)"
-        return self._with_state(load_state, directory, done)
+        loaded = self._with_state(load_state, directory, f"loaded {directory}/")
+        if loaded:
+            self.message += "; undo history is not saved: none to undo"
+        return loaded
 
     # -- undo and repair -----------------------------------------------------------------------
     def undo(self) -> bool:
