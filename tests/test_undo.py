@@ -25,13 +25,28 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture
 def scene(gl):
-    """A 128^2 plate, a 64^2 ball and a Carver with an undo log of the stated defaults."""
+    """A 128^2 plate, a 64^2 ball and a Carver with the context's undo log (of the stated
+    defaults), emptied first: surfaces that earlier tests left unreleased keep their part."""
     plate = dentdemo.DentableSurface(gl.ctx, PLATE, 128)
     ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
     carver = dentdemo.Carver(gl.ctx)
+    log = carver._live().undo_log
+    assert log is not None and (log.depth, log.budget) == (UNDO_DEPTH, UNDO_BYTES)
+    log.clear()
     yield plate, ball, carver
     for thing in (carver, ball, plate):
         thing.release()
+
+
+def _differences(now: list[tuple[bytes, bytes]], want: list[tuple[bytes, bytes]]) -> str:
+    """Which maps of `now` differ from `want`, and in how many bytes (for failure messages)."""
+    out = []
+    for body, (got, expected) in enumerate(zip(now, want, strict=True)):
+        for name, a, b in zip(("height", "normal"), got, expected, strict=True):
+            if a != b:
+                diff = np.frombuffer(a, np.uint8) != np.frombuffer(b, np.uint8)
+                out.append(f"surface {body} {name}: {int(diff.sum())} bytes differ")
+    return "; ".join(out) or "none differ"
 
 
 def _maps(gl, *surfaces) -> list[tuple[bytes, bytes]]:
@@ -63,13 +78,28 @@ def test_undo_takes_back_each_hit_bit_for_bit_on_both_bodies(gl, scene, hits):
         before.append(_maps(gl, plate, ball))
         assert _press(carver, plate, ball, k)
     after = _maps(gl, plate, ball)
-    assert all(a != b for a, b in zip(after[0], before[0][0], strict=True))  # both maps dented
-    assert all(a != b for a, b in zip(after[1], before[0][1], strict=True))
+    dented = _differences(after, before[0])
+    assert dented.count("differ") == 4, f"every map is dented: {dented}"
     for k in reversed(range(hits)):
         assert carver.undo()
-        assert _maps(gl, plate, ball) == before[k], f"undo of hit {k} is not exact"
+        now = _maps(gl, plate, ball)
+        assert now == before[k], f"undo of hit {k}: {_differences(now, before[k])}"
     assert not carver.undo()
     assert _maps(gl, plate, ball) == before[0]
+
+
+def test_carvers_of_one_context_share_the_history(gl, scene):
+    """A press by one Carver is undone by another of the same context (the history is the
+    context's: surfaces and their snapshots belong to it)."""
+    plate, ball, carver = scene
+    before = _maps(gl, plate, ball)
+    assert _press(carver, plate, ball, 0)
+    other = dentdemo.Carver(gl.ctx)
+    try:
+        assert other.undo() and _maps(gl, plate, ball) == before
+        assert not carver.undo()
+    finally:
+        other.release()
 
 
 def test_undo_reads_nothing_back(gl, scene, monkeypatch):
