@@ -172,11 +172,21 @@ def press_and_read(
     ball.model[1, 3] = R  # touching the plate's top (y = 0) at the origin
     carver = dentdemo.Carver(ctx)
     check("Carver()")
-    pressed = carver.press(plate, ball, dentdemo.Contact((0, 0, 0), (0, -1, 0)), D, TOOL_D)
+    fresh = host_read(plate.normal)
+    contact = dentdemo.Contact((0, 0, 0), (0, -1, 0))
+    pressed = carver.press(plate, ball, contact, D, TOOL_D)
     check("press()")
     heights = plate.heights()
     check("heights()")
     normals = host_read(plate.normal)
+    # Undo and repair under the same state put back the fresh maps exactly.
+    assert carver.undo()
+    check("undo()")
+    assert not plate.heights().any() and np.array_equal(host_read(plate.normal), fresh)
+    carver.press(plate, ball, contact, D, TOOL_D)
+    carver.repair(plate)
+    check("repair()")
+    assert not plate.heights().any() and np.array_equal(host_read(plate.normal), fresh)
     for thing in (carver, ball, plate):
         thing.release()
         check(f"{type(thing).__name__}.release()")

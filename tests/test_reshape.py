@@ -220,3 +220,25 @@ def test_a_reshaped_body_saves_and_resumes_bit_for_bit(gl, tmp_path):
     finally:
         sim.close()
         other.close()
+
+
+def test_undo_and_repair_give_the_collision_shape_back(gl, tmp_path):
+    sim = _soft_drop(gl, tmp_path)
+    try:
+        while "ball" not in sim.proxies or sim.proxies["ball"].rebuilt_at == 0.0:
+            sim.step()
+            assert sim.stats.frames < 200
+        assert ode.dGeomGetClass(sim.world.bodies["ball"].geom) == ode.dTriMeshClass
+        assert sim.undo()  # the batch that dented it deep enough
+        assert "ball" not in sim.proxies
+        assert ode.dGeomGetClass(sim.world.bodies["ball"].geom) == ode.dSphereClass
+        while "ball" not in sim.proxies or sim.proxies["ball"].rebuilt_at == 0.0:
+            sim.step()
+            assert sim.stats.frames < 400
+        sim.repair("ball")
+        assert "ball" not in sim.proxies
+        assert ode.dGeomGetClass(sim.world.bodies["ball"].geom) == ode.dSphereClass
+        for _ in range(30):  # and the world steps on with it
+            sim.step()
+    finally:
+        sim.close()

@@ -27,6 +27,7 @@ from dentdemo.carve.surface import (
     load_height_png,
     rebuild_all_normals,
 )
+from dentdemo.carve.undo import UndoLog, restore_pristine
 from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.gl.context import GLContext, per_context
 from dentdemo.gl.state import preserved
@@ -152,6 +153,15 @@ def _wrap(ctx: moderngl.Context) -> GLContext:
     return store["host"]
 
 
+def _undo_log(ctx: moderngl.Context, make: bool = True) -> UndoLog | None:
+    """The undo log of a host context, shared by its Carvers (made by the first one)."""
+    store = per_context(ctx)
+    if "undo" not in store and make:
+        with preserved(ctx):
+            store["undo"] = UndoLog(_wrap(ctx))
+    return store.get("undo")
+
+
 class DentableSurface:
     """A mesh that takes dents: its triangles on the GPU and its maps, `map_size` texels a side
     (16 to 4096).
@@ -164,9 +174,11 @@ class DentableSurface:
     trimesh.Trimesh, converted) keeps its own texture coordinates where they are a unique atlas
     and is re-atlased otherwise: `surface.mesh` is what to draw, and its `source_vertex` maps
     its vertices to the ones given. After `release()` every method raises ValueError.
+    `Carver.repair` puts back the maps the surface was made with (flat, or the heights last
+    given to `set_heights` or `set_bump_map`).
     """
 
-    __slots__ = ("_gl", "_mesh", "_model", "_gpu", "_maps")
+    __slots__ = ("_gl", "_mesh", "_model", "_gpu", "_maps", "_start")
 
     def __init__(
         self,
@@ -188,6 +200,8 @@ class DentableSurface:
         with preserved(ctx):
             self._gpu: GpuMesh | None = GpuMesh(self._gl, self._mesh)
             self._maps: SurfaceMaps | None = create_maps(self._gl, self._gpu, size, deepest)
+        #: The heights `repair` puts back, float32 [v, u] metres as written (None: all 0).
+        self._start: NDArray[np.float32] | None = None
 
     @property
     def mesh(self) -> Mesh:
@@ -256,8 +270,9 @@ class DentableSurface:
         self._write_heights(data)
 
     def release(self) -> None:
-        """Free the GPU buffers and maps (again: nothing)."""
+        """Free the GPU buffers and maps (again: nothing); their undo snapshots go too."""
         if self._maps is not None and self._gpu is not None:
+            self._forget_undo(self._maps)
             self._maps.release()
             self._gpu.release()
         self._maps = self._gpu = None
@@ -284,10 +299,17 @@ class DentableSurface:
                 f"{lowest:g} m; make the surface with a larger max_dent_depth"
             )
         assert self._gpu is not None
+        self._forget_undo(maps)  # undo no longer reaches back past new heights
+        self._start = np.array(data, dtype=np.float32)
         with preserved(self._gl.ctx):
             maps.height.write(np.ascontiguousarray(data).tobytes())
             maps.max_height = max(float(data.max()), 0.0)
             rebuild_all_normals(self._gl, self._gpu, maps)
+
+    def _forget_undo(self, maps: SurfaceMaps) -> None:
+        log = _undo_log(self._gl.ctx, make=False)
+        if log is not None:
+            log.forget(maps)
 
     def _body(self, name: str) -> CarveBody:
         maps = self._live(name)
@@ -306,7 +328,14 @@ def _read_npy(path: Path) -> NDArray:
 
 
 class Carver:
-    """Carves dents: `press` moves a tool surface into a target surface along a contact."""
+    """Carves dents: `press` moves a tool surface into a target surface along a contact.
+
+    Undo: before each `press` or `press_many` call the texels it may write (both surfaces'
+    heights and normals) are copied on the GPU, so `undo()` takes back the last call exactly,
+    bit for bit, then the one before, up to 64 calls and 64 MiB of copies (8 bytes a texel; the
+    oldest are dropped first). The history is one per moderngl context, shared by its Carvers.
+    It lives on the GPU only: it is not saved with `heights()` and is not restored by
+    `set_heights`, which (like `repair` and `release`) drops that surface's part of it."""
 
     __slots__ = ("_ctx", "_carver")
 
@@ -316,6 +345,7 @@ class Carver:
         self._ctx = ctx
         with preserved(ctx):
             self._carver: _Carver | None = _Carver(_wrap(ctx))
+        self._carver.undo_log = _undo_log(ctx)
 
     def press(
         self,
@@ -377,6 +407,27 @@ class Carver:
             planned.append(carver.plan(*bodies, frame, depth_m, tool_m))
         carver.carve_hits(planned)
         return [bool(jobs) for jobs in planned]
+
+    def undo(self) -> bool:
+        """Take back the last `press` or `press_many` call of this context (both surfaces of
+        each press, bit for bit): True, or False with nothing done when no call is left to
+        undo (none yet, all undone, or older than the 64 kept)."""
+        log = self._live().undo_log
+        return log is not None and log.undo()
+
+    def repair(self, surface: DentableSurface) -> None:
+        """Give `surface` back the maps it was made with: heights 0 (or those last given to
+        `set_heights` / `set_bump_map`) and their normals, on the GPU. Its part of the undo
+        history is dropped: a later `undo()` restores only the other surfaces of a press."""
+        self._live()
+        if not isinstance(surface, DentableSurface):
+            raise ArgumentError(f"surface must be a DentableSurface, got {type(surface).__name__}")
+        maps = surface._live("repair()")
+        if surface._gl.ctx is not self._ctx:
+            raise ArgumentError("surface was made in another moderngl context than this Carver")
+        assert surface._gpu is not None
+        surface._forget_undo(maps)
+        restore_pristine(surface._gl, surface._gpu, maps, surface._start)
 
     def release(self) -> None:
         """Free the collision camera's buffers (again: nothing)."""

@@ -267,7 +267,34 @@ class DemoController:
         """Resume a saved state (F9, panel "load state"); a bad one changes nothing."""
         from dentdemo.app.state import load_state
 
-        return self._with_state(load_state, directory, f"loaded {directory}/")
+        loaded = self._with_state(load_state, directory, f"loaded {directory}/")
+        if loaded:
+            self.message += "; undo history is not saved: none to undo"
+        return loaded
+
+    # -- undo and repair -----------------------------------------------------------------------
+    def undo(self) -> bool:
+        """Ctrl+Z, panel "undo": take back the last frame's hits (Simulation.undo)."""
+        done = self.sim.undo()
+        left = len(self.sim.undo_log)
+        self.message = f"undid the last hits ({left} more to undo)" if done else "nothing to undo"
+        return done
+
+    def repair_target(self) -> str | None:
+        """The body the panel's "repair" button repairs: the one dented deeper by the last hit
+        (there is no body selection yet); None before any hit or once it is gone."""
+        hit = self.sim.last_hit
+        body = None if hit is None else hit.deepest()[0]
+        return body if body in self.sim.bodies else None
+
+    def repair(self, body_id: str) -> bool:
+        """Panel "repair": the body's pristine maps back (Simulation.repair)."""
+        if body_id not in self.sim.bodies:
+            self.message = f"repair: no body {body_id!r}"
+            return False
+        self.sim.repair(body_id)
+        self.message = f"repaired {body_id}"
+        return True
 
     def export_gltf(self, path: Path | None = None) -> bool:
         """Write every body as it is now to glTF 2.0 (key G, panel "export glTF"), to `path` or

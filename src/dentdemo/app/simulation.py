@@ -18,6 +18,7 @@ from dentdemo.app.reshape import DentProxy, shape_field
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
+from dentdemo.carve.undo import UNDO_DEPTH, UndoLog, restore_pristine
 from dentdemo.gl.context import GLContext
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.shapes import plate_sides, shape_mesh
@@ -107,6 +108,10 @@ class Simulation:
         self.carve_budget = carve_budget
         self.time_scale = 1.0
         self.carver = Carver(gl)
+        #: Each carved batch (one frame's queue) snapshotted on the GPU for undo (carve/undo.py);
+        #: not saved with the state: a reset or a load empties it.
+        self.undo_log = UndoLog(gl)
+        self.carver.undo_log = self.undo_log
         self.queue: deque[CarveRequest] = deque()
         self.stats = SimStats()
         self.last_impacts: list[Impact] = []
@@ -120,6 +125,9 @@ class Simulation:
         self.dents: dict[str, DentStats] = {}
         #: Per dynamic body that took a dent: its surface as pressed (its collision shape).
         self.proxies: dict[str, DentProxy] = {}
+        #: Per carved batch, newest last, as deep as the undo log: the proxies it pressed as
+        #: they were before it ((inward, shaped, rebuilt_at), or None: the batch made it).
+        self._proxy_history: deque[dict[str, tuple | None]] = deque(maxlen=UNDO_DEPTH)
         self.bodies: dict[str, SimBody] = {}
         self.world: PhysicsWorld = build_world(scene)
         for spec in scene.bodies:
@@ -171,10 +179,8 @@ class Simulation:
         self._add_render_body(spec)
 
     def remove_body(self, body_id: str) -> None:
-        self.dents.pop(body_id, None)
-        self.proxies.pop(body_id, None)
         self.world.remove_body(body_id)
-        _release_body(self.bodies.pop(body_id))
+        self._drop_body(body_id)
         self.queue = deque(
             r for r in self.queue if body_id not in (r.impact.body_a, r.impact.body_b)
         )
@@ -221,9 +227,7 @@ class Simulation:
         impacts = self.world.step()
         for gone in self.world.removed:
             if gone in self.bodies:
-                _release_body(self.bodies.pop(gone))
-                self.dents.pop(gone, None)
-                self.proxies.pop(gone, None)
+                self._drop_body(gone)
         self.world.removed.clear()
         physics_ms = (time.perf_counter() - start) * 1e3
         self.last_impacts = impacts
@@ -265,7 +269,19 @@ class Simulation:
                         stats = self.dents.setdefault(body, DentStats())
                         stats.count += 1
                         stats.deepest = max(stats.deepest, depth)
+            before: dict[str, tuple | None] = {}
+            for request, _ in presses:
+                for body_id in (request.impact.body_a, request.impact.body_b):
+                    if body_id not in before:
+                        p = self.proxies.get(body_id)
+                        before[body_id] = (
+                            None if p is None else (p.inward.copy(), p.shaped.copy(), p.rebuilt_at)
+                        )
                 self._follow_dents(request)
+            if len(self.undo_log):
+                self._proxy_history.append(before)
+            else:  # a batch too large to keep empties the log: nothing before it can be undone
+                self._proxy_history.clear()
         return len(taken)
 
     def _follow_dents(self, request: CarveRequest) -> None:
@@ -352,9 +368,57 @@ class Simulation:
         contact = ContactFrame(impact.point, -impact.normal)
         return request, (target, tool, contact, request.depth_a, request.depth_b)
 
+    def _drop_body(self, body_id: str) -> None:
+        self.dents.pop(body_id, None)
+        self.proxies.pop(body_id, None)
+        body = self.bodies.pop(body_id)
+        self.undo_log.forget(body.maps)
+        _release_body(body)
+
+    # -- undo and repair -----------------------------------------------------------------------
+    def undo(self) -> bool:
+        """Take back the last carved batch (one frame's hits, both bodies of each, bit for bit)
+        from the GPU snapshots, and the collision shapes it pressed (app/reshape.py); False when
+        none is left (see carve/undo.py for the bounds)."""
+        if not self.undo_log.undo():
+            return False
+        before = self._proxy_history.pop() if self._proxy_history else {}
+        for body_id, saved in before.items():
+            if body_id not in self.bodies:
+                continue
+            if saved is None:  # the batch made it: the body had no dents to follow before
+                self.proxies.pop(body_id, None)
+                self.world.reset_shape(body_id)
+                continue
+            proxy = self.proxies[body_id]
+            reshaped = proxy.rebuilt_at != saved[2]
+            proxy.inward, proxy.shaped, proxy.rebuilt_at = saved
+            if reshaped:
+                if proxy.rebuilt_at > 0.0:
+                    self.world.set_hull(body_id, *proxy.surface())
+                else:
+                    self.world.reset_shape(body_id)
+        return True
+
+    def repair(self, body_id: str) -> None:
+        """Give a body back its pristine maps (height 0, or its scene bump map, and their
+        normals); its part of the undo history is dropped."""
+        body = self.bodies[body_id]
+        start = None
+        if body.spec.dentable and body.spec.bump_map:
+            size = body.maps.size[0]
+            start = load_height_png(Path(body.spec.bump_map), size, body.spec.bump_height)
+        self.undo_log.forget(body.maps)
+        restore_pristine(self.gl, body.gpu_mesh, body.maps, start)
+        if self.proxies.pop(body_id, None) is not None:
+            self.world.reset_shape(body_id)  # its collision shape is the pristine one again
+        for before in self._proxy_history:
+            before.pop(body_id, None)
+
     # -- lifecycle -----------------------------------------------------------------------------
     def reset(self) -> None:
-        """Back to the scene as loaded: bodies, poses and pristine maps."""
+        """Back to the scene as loaded: bodies, poses and pristine maps (no undo history)."""
+        self.undo_log.clear()
         self._release_bodies()
         self.world.close()
         self.bodies.clear()
@@ -363,6 +427,7 @@ class Simulation:
         self.last_hit = None
         self.dents.clear()
         self.proxies.clear()
+        self._proxy_history.clear()
         self.stats = SimStats()
         self.ball_count = 0
         self._time_debt = 0.0
@@ -411,6 +476,7 @@ class Simulation:
             _release_body(body)
 
     def close(self) -> None:
+        self.undo_log.release()
         self._release_bodies()
         self.carver.release()
         self.world.close()

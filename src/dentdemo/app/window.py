@@ -5,7 +5,7 @@ the body there for the developer tools), right drag throws a ball along the view
 drags throw harder), middle drag or shift+left drag pans, the wheel zooms. Keys: Space pause,
 N single step, R reset, P screenshot, 1/2/3 shaded/height/normal view, W wireframe, C contacts,
 A address map, X parallax, F close-up on the last dent, F5/F9 save and load the state, F6 record
-video, G export every body to glTF, Esc quit.
+video, G export every body to glTF, Ctrl+Z undo the last frame's hits, Esc quit.
 """
 
 from __future__ import annotations
@@ -139,7 +139,9 @@ class DemoWindow:
             glfw.KEY_X: lambda: self.app.toggle("parallax"),
             glfw.KEY_ESCAPE: lambda: glfw.set_window_should_close(window, True),
         }
-        if key in actions:
+        if key == glfw.KEY_Z and mods & glfw.MOD_CONTROL:
+            self.app.undo()
+        elif key in actions:
             actions[key]()
 
     def _screenshot_key(self) -> None:
@@ -192,6 +194,13 @@ class DemoWindow:
         if imgui.button("close-up on last dent (F)"):
             app.close_up()
         imgui.text(app.last_dent_text())
+        if imgui.button("undo (Ctrl+Z)"):
+            app.undo()
+        repair = app.repair_target()
+        if repair is not None:
+            imgui.same_line()
+            if imgui.button(f"repair {repair}"):
+                app.repair(repair)
         if imgui.button("save state (F5)"):
             app.save_state()
         imgui.same_line()

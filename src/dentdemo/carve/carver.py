@@ -10,6 +10,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field, replace
 from itertools import groupby
+from typing import TYPE_CHECKING
 
 import moderngl
 import numpy as np
@@ -34,6 +35,9 @@ from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.passes import Blend, Pass, PassState
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
+
+if TYPE_CHECKING:
+    from dentdemo.carve.undo import UndoLog
 
 
 @dataclass
@@ -251,6 +255,8 @@ class Carver:
         #: Per-triangle lists of what each pass draws on a software rasteriser, whose vertex work
         #: is CPU work; whole clusters on a GPU, where planning is the cost of a hit.
         self.exact_lists = gl.software
+        #: Snapshots each batch's footprints before it is carved, when set (carve/undo.py).
+        self.undo_log: UndoLog | None = None
 
     # -- public --------------------------------------------------------------------------------
     def carve(
@@ -282,6 +288,8 @@ class Carver:
         placed: list[CarveJob] = []
         if any(hits):
             with preserved(self.gl.ctx):  # the host's GL state, as it left it
+                if self.undo_log is not None:
+                    self.undo_log.record(hits)  # one entry: the maps before the whole batch
                 for batch in self.scratch.pack([hit for hit in hits if hit]):
                     self._run(batch)
                     placed += batch

@@ -101,6 +101,8 @@ class _Body:
     body_addr: int | None = None  # the dBodyID as an integer, for the hot path
     #: Lever of the rolling resistance, m: from the centre of mass to where the body rests.
     rolling_radius: float = 0.0
+    #: A mesh shape's triangles (body space), to make its geom again (`reset_shape`).
+    mesh_arrays: tuple[NDArray, NDArray] | None = None
 
 
 @dataclass(frozen=True)
@@ -233,7 +235,7 @@ class PhysicsWorld:
             raise ValueError(f"duplicate body id '{spec.id}'")
         shape = spec.shape
         geom, keep, com = make_geom(self.space, spec, mesh_arrays)
-        record = _Body(spec, geom, None, math.inf, com, keep)
+        record = _Body(spec, geom, None, math.inf, com, keep, mesh_arrays=mesh_arrays)
         record.rolling_radius = rolling_radius(spec, mesh_arrays, com)
         if not spec.static and not isinstance(shape, Plane):
             try:
@@ -289,13 +291,26 @@ class PhysicsWorld:
         record = self.bodies[body_id]
         if record.body is None:
             raise ValueError(f"body '{body_id}' is static: its shape does not follow its dents")
+        geom, keep = trimesh_geom(self.space, positions, indices)
+        self._replace_geom(record, geom, keep, -record.com_offset)
+
+    def reset_shape(self, body_id: str) -> None:
+        """Give a body back the collision shape its spec makes (after `set_hull`)."""
+        record = self.bodies[body_id]
+        geom, keep, _ = make_geom(self.space, record.spec, record.mesh_arrays)
+        offset = -record.com_offset if isinstance(record.spec.shape, MeshFile) else np.zeros(3)
+        self._replace_geom(record, geom, keep, offset)
+
+    def _replace_geom(self, record: _Body, geom: Handle, keep: list, offset: NDArray) -> None:
+        """`geom` (just made in the space) takes the place of `record`'s geom: its body, the
+        geom's offset from the body (metres), its place in the space's order."""
         old = record.geom
         order = [ode.dSpaceGetGeom(self.space, i) for i in range(ode.dSpaceGetNumGeoms(self.space))]
         at = next(i for i, g in enumerate(order) if _addr(g) == _addr(old))
-        geom, keep = trimesh_geom(self.space, positions, indices)
-        ode.dGeomSetBody(geom, record.body)
-        if np.any(record.com_offset != 0):
-            ode.dGeomSetOffsetPosition(geom, *(-record.com_offset))
+        if record.body is not None:
+            ode.dGeomSetBody(geom, record.body)
+            if np.any(offset != 0):
+                ode.dGeomSetOffsetPosition(geom, *offset)
         self._by_geom.pop(_addr(old), None)
         self._pair_surface = {k: v for k, v in self._pair_surface.items() if _addr(old) not in k}
         destroy_geom(old, record.keep_alive)

@@ -1,0 +1,277 @@
+"""Undo and repair of the carve (docs/carve.md, "Undo and repair").
+
+Before a batch of hits is carved (`Carver.carve_hits`), `UndoLog.record` copies every map
+rectangle the batch may write, heights (R32F) and normals (RGBA8), into textures of its own on the
+GPU: glBlitFramebuffer between textures of the same format and size, NEAREST (exact), no
+readback. `UndoLog.undo` copies the last batch's rectangles back. One entry is one call of
+`carve_hits`: one press (both directions), one `press_many`, or one frame's queue in the sandbox,
+so that undo is bit-exact (every hit of a batch reads the heights from before the batch, so a
+single hit of a batch cannot be taken back alone). The log keeps at most `depth` entries and
+`budget` bytes of texels, dropping the oldest.
+
+Where a map's rectangles come from: passes 4 and 5 draw only the triangles `camera.target_texels`
+and `camera.target_gutter` in texture space; the first write texel centres inside those triangles,
+the gutter draws (texel.geom) each triangle's texel bounding box grown by one texel. So every
+texel a job writes lies inside its triangles' uv bounding boxes grown by `MARGIN` texels; the
+boxes of all jobs on one map are merged into a few rectangles (split where `GAP` texels or more
+of rows or columns hold no box, so that a dent across two far charts of an atlas keeps two small
+rectangles).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import moderngl
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.carve.surface import GpuMesh, SurfaceMaps, rebuild_all_normals
+from dentdemo.gl.context import GLContext, release
+from dentdemo.gl.library import gl_library
+from dentdemo.gl.state import preserved
+
+if TYPE_CHECKING:
+    from dentdemo.carve.carver import CarveJob
+    from dentdemo.mesh.mesh import Mesh
+
+#: Entries (batches of hits) the log keeps at most; the oldest is dropped first.
+UNDO_DEPTH = 64
+#: Bytes of snapshot texels the log keeps at most (texture memory: 8 bytes a texel).
+UNDO_BYTES = 64 << 20
+#: Bytes a snapshot texel takes: R32F height (4) + RGBA8 normal (4).
+SNAPSHOT_BYTES_PER_TEXEL = 4 + 4
+#: Texels added on each side of a triangle's uv bounding box: the gutter draw grows it by one
+#: texel (texel.geom), one more for the rounding of the box's corners.
+MARGIN = 2
+#: Boxes farther apart than this (texels) along u or v get rectangles of their own.
+GAP = 8
+
+#: A rectangle of a map: (x, y, width, height), texels; x along +u, y along +v (row 0 is v = 0).
+Rect = tuple[int, int, int, int]
+#: One copy: (read framebuffer, its lower-left texel, draw framebuffer, its lower-left texel,
+#: width, height).
+Copy = tuple[moderngl.Framebuffer, tuple[int, int], moderngl.Framebuffer, tuple[int, int], int, int]
+
+_READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER, _FRAMEBUFFER = 0x8CA8, 0x8CA9, 0x8D40
+_COLOR_BUFFER_BIT, _NEAREST = 0x4000, 0x2600
+
+
+def triangle_boxes(
+    mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int]
+) -> NDArray[np.int64]:
+    """Each triangle's texel bounding box grown by `MARGIN`, clamped to the map: rows of
+    (x0, y0, x1, y1), half-open, texels; empty boxes dropped."""
+    if len(triangles) == 0:
+        return np.zeros((0, 4), np.int64)
+    uv = mesh.uvs[mesh.indices[np.asarray(triangles)]].astype(np.float64)  # (n, 3, 2) uv units
+    scale = np.array(size, dtype=np.float64)
+    lo = np.floor(uv.min(axis=1) * scale) - MARGIN
+    hi = np.ceil(uv.max(axis=1) * scale) + MARGIN
+    limit = np.array(size, dtype=np.float64)
+    boxes = np.hstack([np.clip(lo, 0, limit), np.clip(hi, 0, limit)]).astype(np.int64)
+    return boxes[(boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])]
+
+
+def merged_rects(boxes: NDArray[np.int64], gap: int = GAP) -> list[Rect]:
+    """Disjoint rectangles that together hold every box (x0, y0, x1, y1): the boxes split into
+    groups along a row or column band that no box touches and that is at least `gap` texels
+    wide (again within each group, rows first), each group's bounding box one rectangle."""
+    out: list[Rect] = []
+    if len(boxes):
+        _split(boxes, gap, out)
+    return out
+
+
+def _split(boxes: NDArray[np.int64], gap: int, out: list[Rect]) -> None:
+    for axis in (1, 0):  # along v (rows), then along u (columns)
+        lo, hi = boxes[:, axis], boxes[:, axis + 2]
+        order = np.argsort(lo, kind="stable")
+        reach = np.maximum.accumulate(hi[order])  # the farthest end of the boxes so far
+        breaks = np.flatnonzero(lo[order][1:] >= reach[:-1] + gap) + 1
+        if len(breaks):
+            for group in np.split(order, breaks):
+                _split(boxes[group], gap, out)
+            return
+    x0, y0 = boxes[:, :2].min(axis=0)
+    x1, y1 = boxes[:, 2:].max(axis=0)
+    out.append((int(x0), int(y0), int(x1 - x0), int(y1 - y0)))
+
+
+def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
+    """The maps the jobs write and, for each, the rectangles holding every texel written."""
+    by_maps: dict[int, tuple[SurfaceMaps, list[NDArray[np.int64]]]] = {}
+    for job in jobs:
+        maps = job.target.maps
+        mesh = job.target.gpu_mesh.mesh
+        triangles = np.concatenate([job.camera.target_texels, job.camera.target_gutter])
+        boxes = triangle_boxes(mesh, triangles.astype(np.int64), maps.size)
+        by_maps.setdefault(id(maps), (maps, []))[1].append(boxes)
+    return [(maps, merged_rects(np.concatenate(boxes))) for maps, boxes in by_maps.values()]
+
+
+@dataclass
+class Snapshot:
+    """One rectangle of a map's height and normals as they were before an entry's hits."""
+
+    maps: SurfaceMaps
+    rect: Rect
+    height: moderngl.Texture
+    normal: moderngl.Texture
+    height_fbo: moderngl.Framebuffer
+    normal_fbo: moderngl.Framebuffer
+
+    @property
+    def bytes(self) -> int:
+        return self.rect[2] * self.rect[3] * SNAPSHOT_BYTES_PER_TEXEL
+
+    def release(self) -> None:
+        release(self.height_fbo, self.normal_fbo, self.height, self.normal)
+
+
+class UndoLog:
+    """The snapshots of the last `depth` batches of hits, at most `budget` bytes in all, on the
+    GPU (see the module's docstring). Undo past the oldest kept entry is a no-op returning
+    False. A batch whose snapshots alone exceed the budget empties the log (the older entries
+    could no longer be undone exactly) and is not recorded."""
+
+    def __init__(self, gl: GLContext, depth: int = UNDO_DEPTH, budget: int = UNDO_BYTES) -> None:
+        self.gl = gl
+        self.depth = depth
+        self.budget = budget
+        #: Oldest first; each entry is the snapshots of one batch.
+        self.entries: deque[list[Snapshot]] = deque()
+        self.bytes = 0
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def record(self, hits: Sequence[Sequence[CarveJob]]) -> None:
+        """Snapshot what the batch `hits` will write, as one entry, before any of its passes
+        runs. Called inside `preserved` (by `Carver.carve_hits`)."""
+        jobs = [job for hit in hits for job in hit]
+        if not jobs or self.depth <= 0:
+            return
+        rects = [(maps, rect) for maps, found in job_rects(jobs) for rect in found]
+        needed = sum(w * h for _, (_, _, w, h) in rects) * SNAPSHOT_BYTES_PER_TEXEL
+        if needed > self.budget:
+            self.clear()
+            return
+        while self.entries and (
+            len(self.entries) >= self.depth or self.bytes + needed > self.budget
+        ):
+            self._drop(self.entries.popleft())
+        entry = [self._allocate(maps, rect) for maps, rect in rects]
+        if not entry:
+            return
+        copies: list[Copy] = []
+        for snap in entry:
+            x, y, w, h = snap.rect
+            copies += [
+                (snap.maps.height_fbo, (x, y), snap.height_fbo, (0, 0), w, h),
+                (snap.maps.normal_fbo, (x, y), snap.normal_fbo, (0, 0), w, h),
+            ]
+        self._blit(copies)
+        self.entries.append(entry)
+        self.bytes += needed
+
+    def undo(self) -> bool:
+        """Put back the maps as they were before the last recorded batch; False (nothing done)
+        when the log is empty. The host's GL state is left as it was."""
+        if not self.entries:
+            return False
+        entry = self.entries.pop()
+        copies: list[Copy] = []
+        for snap in entry:  # the rectangles of one entry and map are disjoint: any order
+            x, y, w, h = snap.rect
+            copies += [
+                (snap.height_fbo, (0, 0), snap.maps.height_fbo, (x, y), w, h),
+                (snap.normal_fbo, (0, 0), snap.maps.normal_fbo, (x, y), w, h),
+            ]
+        with preserved(self.gl.ctx):
+            self._blit(copies)
+            wait_for_writes(self.gl)
+        self._drop(entry)
+        return True
+
+    def forget(self, maps: SurfaceMaps) -> None:
+        """Drop every snapshot of `maps` (its maps were replaced: repair, new heights, release);
+        entries left empty go. Undo then restores the other bodies of those entries only."""
+        kept: deque[list[Snapshot]] = deque()
+        for entry in self.entries:
+            for snap in entry:
+                if snap.maps is maps:
+                    self.bytes -= snap.bytes
+                    snap.release()
+            rest = [snap for snap in entry if snap.maps is not maps]
+            if rest:
+                kept.append(rest)
+        self.entries = kept
+
+    def clear(self) -> None:
+        while self.entries:
+            self._drop(self.entries.popleft())
+
+    def release(self) -> None:
+        self.clear()
+
+    # -- internals -----------------------------------------------------------------------------
+    def _drop(self, entry: list[Snapshot]) -> None:
+        for snap in entry:
+            self.bytes -= snap.bytes
+            snap.release()
+
+    def _allocate(self, maps: SurfaceMaps, rect: Rect) -> Snapshot:
+        ctx = self.gl.ctx
+        size = (rect[2], rect[3])
+        height = ctx.texture(size, 1, dtype="f4")
+        normal = ctx.texture(size, 4, dtype="f1")
+        for texture in (height, normal):
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return Snapshot(
+            maps, rect, height, normal, ctx.framebuffer([height]), ctx.framebuffer([normal])
+        )
+
+    def _blit(self, copies: list[Copy]) -> None:
+        """glBlitFramebuffer, NEAREST, of each copy's rectangle (same format on both sides:
+        exact); the scissor test is off (`preserved` starts from `neutral`). The framebuffer
+        moderngl holds bound is bound again afterwards."""
+        gl = gl_library()
+        # moderngl's colour mask of a framebuffer is applied when it is bound; ours write all.
+        copies[0][2].use()
+        for source, (sx, sy), target, (tx, ty), w, h in copies:
+            gl.glBindFramebuffer(_READ_FRAMEBUFFER, source.glo)
+            gl.glBindFramebuffer(_DRAW_FRAMEBUFFER, target.glo)
+            gl.glBlitFramebuffer(
+                sx, sy, sx + w, sy + h, tx, ty, tx + w, ty + h, _COLOR_BUFFER_BIT, _NEAREST
+            )
+        gl.glBindFramebuffer(_FRAMEBUFFER, copies[0][2].glo)
+
+
+def restore_pristine(
+    gl: GLContext,
+    gpu_mesh: GpuMesh,
+    maps: SurfaceMaps,
+    heights: NDArray[np.float32] | None = None,
+) -> None:
+    """A body's maps as they started: the height map cleared to 0 on the GPU, or `heights` (the
+    start map, float32 [v, u] metres, as it was first written) uploaded, and every normal
+    rebuilt. The host's GL state is left as it was."""
+    with preserved(gl.ctx):
+        if heights is None:
+            maps.height_fbo.clear(0.0, 0.0, 0.0, 0.0)
+        else:
+            maps.height.write(np.ascontiguousarray(heights, dtype=np.float32).tobytes())
+        rebuild_all_normals(gl, gpu_mesh, maps)
+        wait_for_writes(gl)
+
+
+def wait_for_writes(gl: GLContext) -> None:
+    """glFinish after an undo or a repair (a user's action, not once a frame; no readback).
+    Mesa 22.3's llvmpipe let a read of a map just after them return the map as it was before
+    them (in 2-5 of 240 undos, by draw or by blit, and after repairs), as if it lost track of
+    writes still in flight; with glFinish none did in 480."""
+    gl.ctx.finish()

@@ -1,0 +1,342 @@
+"""Undo and repair (carve/undo.py): undo puts both bodies' heights and normals back bit for bit,
+hit after hit, from GPU copies made before each carve (no readback); the log keeps its stated
+depth and byte budget, dropping the oldest; repair gives exactly a fresh body's maps. The maps
+the tests compare with are read back by the tests themselves, before each hit."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import moderngl
+import numpy as np
+import pytest
+
+import dentdemo
+from dentdemo.carve.undo import UNDO_BYTES, UNDO_DEPTH, UndoLog, merged_rects
+
+SIDE = 0.4  # plate side, m
+R = 0.05  # ball radius, m
+PLATE = dentdemo.shape_mesh(dentdemo.Plate(SIDE))
+BALL = dentdemo.shape_mesh(dentdemo.Sphere(R))
+BOX = dentdemo.shape_mesh(dentdemo.Box((0.2, 0.2, 0.2)))
+DOWN = (0.0, -1.0, 0.0)
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def scene(gl):
+    """A 128^2 plate, a 64^2 ball and a Carver with the context's undo log (of the stated
+    defaults), emptied first: surfaces that earlier tests left unreleased keep their part."""
+    plate = dentdemo.DentableSurface(gl.ctx, PLATE, 128)
+    ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
+    carver = dentdemo.Carver(gl.ctx)
+    log = carver._live().undo_log
+    assert log is not None and (log.depth, log.budget) == (UNDO_DEPTH, UNDO_BYTES)
+    log.clear()
+    yield plate, ball, carver
+    for thing in (carver, ball, plate):
+        thing.release()
+
+
+def _differences(now: list[tuple[bytes, bytes]], want: list[tuple[bytes, bytes]]) -> str:
+    """Which maps of `now` differ from `want`, and in how many bytes (for failure messages)."""
+    out = []
+    for body, (got, expected) in enumerate(zip(now, want, strict=True)):
+        for name, a, b in zip(("height", "normal"), got, expected, strict=True):
+            if a != b:
+                diff = np.frombuffer(a, np.uint8) != np.frombuffer(b, np.uint8)
+                out.append(f"surface {body} {name}: {int(diff.sum())} bytes differ")
+    return "; ".join(out) or "none differ"
+
+
+def _maps(gl, *surfaces) -> list[tuple[bytes, bytes]]:
+    """Each surface's height and normal map, read back as bytes (bit-exact comparisons)."""
+    return [(s.heights().tobytes(), gl.read(s.normal).tobytes()) for s in surfaces]
+
+
+def _press(carver, plate, ball, k: int) -> bool:
+    """Press k: the ball 0.004-0.006 m into the plate at x = 0.01 k m (dents 2 cm across, so
+    each overlaps the one before) and 1-2 mm into itself, always at its bottom."""
+    x = -0.15 + 0.01 * k
+    ball.model = np.eye(4)
+    ball.model[:3, 3] = (x, R, 0.02 * (k % 3))
+    depth = 0.004 + 0.002 * ((k * 7) % 5) / 4
+    tool_depth = 0.001 + 0.001 * ((k * 3) % 4) / 3
+    contact = dentdemo.Contact((x, 0.0, 0.02 * (k % 3)), DOWN)
+    return carver.press(plate, ball, contact, depth, tool_depth)
+
+
+@pytest.mark.parametrize("hits", [1, 2, 33])
+def test_undo_takes_back_each_hit_bit_for_bit_on_both_bodies(gl, scene, hits):
+    """Overlapping dents on the plate and on the ball's one spot, undone in reverse order: after
+    each undo both bodies' maps equal, byte for byte, those read before that hit; one undo more
+    is a no-op returning False. 33 hits: past the 32 the issue asks for."""
+    plate, ball, carver = scene
+    assert UNDO_DEPTH >= 33
+    before = []
+    for k in range(hits):
+        before.append(_maps(gl, plate, ball))
+        assert _press(carver, plate, ball, k)
+    after = _maps(gl, plate, ball)
+    dented = _differences(after, before[0])
+    assert dented.count("differ") == 4, f"every map is dented: {dented}"
+    for k in reversed(range(hits)):
+        assert carver.undo()
+        now = _maps(gl, plate, ball)
+        assert now == before[k], f"undo of hit {k}: {_differences(now, before[k])}"
+    assert not carver.undo()
+    assert _maps(gl, plate, ball) == before[0]
+
+
+def test_carvers_of_one_context_share_the_history(gl, scene):
+    """A press by one Carver is undone by another of the same context (the history is the
+    context's: surfaces and their snapshots belong to it)."""
+    plate, ball, carver = scene
+    before = _maps(gl, plate, ball)
+    assert _press(carver, plate, ball, 0)
+    other = dentdemo.Carver(gl.ctx)
+    try:
+        assert other.undo() and _maps(gl, plate, ball) == before
+        assert not carver.undo()
+    finally:
+        other.release()
+
+
+def test_undo_reads_nothing_back(gl, scene, monkeypatch):
+    """The snapshot before a press and the undo are GPU copies: no texture or framebuffer is
+    read while they run."""
+    plate, ball, carver = scene
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("read back during press or undo")
+
+    with monkeypatch.context() as patch:
+        for cls in (moderngl.Texture, moderngl.Framebuffer):
+            patch.setattr(cls, "read", refuse)
+            patch.setattr(cls, "read_into", refuse)
+        assert _press(carver, plate, ball, 0)
+        assert carver.undo()
+
+
+def _changed(a: bytes, b: bytes, size: int, components: int, dtype) -> np.ndarray:
+    """Where two map readbacks differ: bool [v, u]."""
+    x = np.frombuffer(a, dtype).reshape(size, size, components)
+    y = np.frombuffer(b, dtype).reshape(size, size, components)
+    return (x != y).any(axis=2)
+
+
+def test_snapshot_rectangles_hold_every_texel_a_hit_writes(gl):
+    """A ball on a box's edge and corner dents several charts of its atlas: every texel whose
+    height or normal the press changed lies in the rectangles snapshotted for it, and undo
+    restores the box exactly."""
+    box = dentdemo.DentableSurface(gl.ctx, BOX, 256)
+    ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
+    carver = dentdemo.Carver(gl.ctx)
+    log = UndoLog(carver._live().gl)
+    carver._live().undo_log = log
+    try:
+        for point, direction in (
+            ((0.1, 0.1, 0.0), (-1.0, -1.0, 0.0)),  # edge: two faces
+            ((0.1, 0.1, 0.1), (-1.0, -1.0, -1.0)),  # corner: three faces
+        ):
+            d = np.array(direction) / np.linalg.norm(direction)
+            ball.model = np.eye(4)
+            ball.model[:3, 3] = np.array(point) - d * R
+            (before,) = _maps(gl, box)
+            assert carver.press(box, ball, dentdemo.Contact(point, d), 0.005)
+            (after,) = _maps(gl, box)
+            inside = np.zeros((256, 256), bool)
+            for snap in log.entries[-1]:
+                if snap.maps is box._live(""):
+                    x, y, w, h = snap.rect
+                    inside[y : y + h, x : x + w] = True
+            for i, dtype, comps in ((0, np.float32, 1), (1, np.uint8, 4)):
+                changed = _changed(before[i], after[i], 256, comps, dtype)
+                assert changed.any()
+                assert not (changed & ~inside).any(), (
+                    f"{int((changed & ~inside).sum())} texels written outside the snapshot"
+                )
+            assert log.undo() and _maps(gl, box) == [before]
+    finally:
+        log.release()
+        for thing in (carver, ball, box):
+            thing.release()
+
+
+def test_merged_rects_keep_far_boxes_apart():
+    """Boxes (x0, y0, x1, y1), texels: two overlapping ones near the origin make one rectangle,
+    their union (0, 0)-(20, 12); one 88 texels off stays its own; an L of two boxes that no
+    empty row or column separates is one rectangle, their bounding box; boxes 7 texels apart
+    (under the 8-texel gap) merge, 8 apart do not."""
+    boxes = np.array([[0, 0, 10, 10], [100, 100, 110, 120], [5, 5, 20, 12]])
+    assert sorted(merged_rects(boxes)) == [(0, 0, 20, 12), (100, 100, 10, 20)]
+    ell = np.array([[0, 0, 10, 40], [0, 30, 40, 40]])
+    assert merged_rects(ell) == [(0, 0, 40, 40)]
+    near = np.array([[0, 0, 10, 10], [17, 0, 27, 10]])
+    assert merged_rects(near) == [(0, 0, 27, 10)]
+    apart = np.array([[0, 0, 10, 10], [18, 0, 28, 10]])
+    assert sorted(merged_rects(apart)) == [(0, 0, 10, 10), (18, 0, 10, 10)]
+    # Split along v, then one band split along u: three rectangles.
+    three = np.array([[0, 0, 10, 10], [50, 0, 60, 10], [0, 50, 60, 60]])
+    assert sorted(merged_rects(three)) == [(0, 0, 10, 10), (0, 50, 60, 10), (50, 0, 10, 10)]
+    assert merged_rects(np.zeros((0, 4), np.int64)) == []
+
+
+def _own_log(carver, depth: int, budget: int) -> UndoLog:
+    log = UndoLog(carver._live().gl, depth=depth, budget=budget)
+    carver._live().undo_log = log
+    return log
+
+
+def _entry_bytes(entry) -> int:
+    """Texture bytes of an entry's snapshots worked out from their textures: w h (4 + 4)."""
+    total = 0
+    for snap in entry:
+        w, h = snap.rect[2:]
+        assert snap.height.size == (w, h) and snap.height.dtype == "f4"
+        assert snap.height.components == 1
+        assert snap.normal.size == (w, h) and snap.normal.dtype == "f1"
+        assert snap.normal.components == 4
+        total += w * h * 4 + w * h * 4
+    return total
+
+
+def test_depth_bound_drops_the_oldest(gl, scene):
+    """A log 4 deep after 6 hits undoes the last 4 (back to the maps after hit 2) and then
+    nothing: undo past the bound is a no-op returning False."""
+    plate, ball, carver = scene
+    log = _own_log(carver, 4, UNDO_BYTES)
+    try:
+        states = []
+        for k in range(6):
+            states.append(_maps(gl, plate, ball))
+            _press(carver, plate, ball, k)
+            assert len(log) == min(k + 1, 4)
+        for _ in range(4):
+            assert carver.undo()
+        assert _maps(gl, plate, ball) == states[2]
+        assert not carver.undo()
+        assert _maps(gl, plate, ball) == states[2]
+    finally:
+        log.release()
+
+
+def test_byte_budget_drops_the_oldest_and_is_kept(gl, scene):
+    """The bytes each hit's snapshots take, from their rectangles (w h 8); a log whose budget
+    holds only the last two hits keeps exactly those two and their bytes; a budget under one
+    hit's snapshots empties the log and records nothing."""
+    plate, ball, carver = scene
+    log = _own_log(carver, UNDO_DEPTH, UNDO_BYTES)
+    sizes = []
+    for k in range(3):
+        _press(carver, plate, ball, k)
+        sizes.append(_entry_bytes(log.entries[-1]))
+    assert log.bytes == sum(sizes)
+    while carver.undo():
+        pass
+    log.release()
+    budget = sizes[1] + sizes[2]
+    assert sum(sizes) > budget  # the first cannot stay beside the other two
+    log = _own_log(carver, UNDO_DEPTH, budget)
+    try:
+        states = []
+        for k in range(3):
+            states.append(_maps(gl, plate, ball))
+            _press(carver, plate, ball, k)
+            assert log.bytes <= budget
+        assert [_entry_bytes(e) for e in log.entries] == sizes[1:]
+        assert log.bytes == budget
+        assert carver.undo() and carver.undo() and not carver.undo()
+        assert _maps(gl, plate, ball) == states[1]
+        log.budget = min(sizes) - 1
+        _press(carver, plate, ball, 5)
+        assert len(log) == 0 and log.bytes == 0 and not carver.undo()
+    finally:
+        log.release()
+
+
+def test_repair_gives_a_fresh_surfaces_maps(gl, scene):
+    """After hits, repair gives exactly the maps of a surface just made (heights 0, flat
+    normals), and of one made from the same heights where the surface started from a bump."""
+    plate, ball, carver = scene
+    for k in range(3):
+        _press(carver, plate, ball, k)
+    carver.repair(plate)
+    carver.repair(ball)
+    fresh_plate = dentdemo.DentableSurface(gl.ctx, PLATE, 128)
+    fresh_ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
+    try:
+        assert _maps(gl, plate, ball) == _maps(gl, fresh_plate, fresh_ball)
+        c = (np.arange(128) + 0.5) / 128
+        bumps = (0.002 * np.sin(2 * np.pi * 3 * c)[None, :] * np.ones((128, 1))).astype("f4")
+        plate.set_heights(bumps)
+        fresh_plate.set_heights(bumps)
+        _press(carver, plate, ball, 0)
+        assert _maps(gl, plate) != _maps(gl, fresh_plate)
+        carver.repair(plate)
+        assert _maps(gl, plate) == _maps(gl, fresh_plate)
+    finally:
+        fresh_plate.release()
+        fresh_ball.release()
+
+
+def test_undo_after_repair_restores_only_the_other_body(gl, scene):
+    """Two hits, then the plate repaired: undo takes back the ball's dents hit by hit while the
+    plate stays pristine; then nothing is left."""
+    plate, ball, carver = scene
+    fresh = _maps(gl, plate)
+    states = []
+    for k in range(2):
+        states.append(_maps(gl, ball))
+        _press(carver, plate, ball, k)
+    carver.repair(plate)
+    assert _maps(gl, plate) == fresh
+    for k in (1, 0):
+        assert carver.undo()
+        assert _maps(gl, ball) == states[k] and _maps(gl, plate) == fresh
+    assert not carver.undo()
+
+
+def test_controller_undo_repair_and_load(gl, tmp_path):
+    """The sandbox through its controller: the first hit of the ball drop undone bit for bit on
+    both bodies (the same log as the API); repair gives the scene's pristine maps; a loaded
+    state has no undo history, and the panel line says so."""
+    from dentdemo.app.controller import DemoController
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    lib = load_materials()
+    app = DemoController(gl, load_scene(ROOT / "assets/scenes/ball_drop.toml", lib), lib, (64, 36))
+    try:
+        sim = app.sim
+        pristine = {i: _raw(gl, b.maps) for i, b in sim.bodies.items() if b.spec.dentable}
+        sim.carve_budget = 0  # the hit waits in the queue: the maps before it are read here
+        while not sim.queue:
+            sim.step()
+        request = sim.queue[0]
+        hit = request.impact
+        names = [n for n in (hit.body_a, hit.body_b) if sim.bodies[n].spec.dentable]
+        before = {n: _raw(gl, sim.bodies[n].maps) for n in names}
+        assert names and all(before[n] == pristine[n] for n in names)
+        assert sim.apply_queued(1) == 1
+        assert all(_raw(gl, sim.bodies[n].maps) != before[n] for n in names)
+        assert app.undo() and "undid" in app.message
+        assert all(_raw(gl, sim.bodies[n].maps) == before[n] for n in names)
+        assert not app.undo() and app.message == "nothing to undo"
+        sim.queue.appendleft(request)  # the same hit again, then repaired
+        sim.apply_queued(1)
+        target = app.repair_target()
+        assert target in names and _raw(gl, sim.bodies[target].maps) != pristine[target]
+        assert app.repair(target) and app.message == f"repaired {target}"
+        assert _raw(gl, sim.bodies[target].maps) == pristine[target]
+        assert not app.repair("no_such_body") and "no_such_body" in app.message
+        assert app.save_state(tmp_path / "s"), app.message
+        assert app.load_state(tmp_path / "s"), app.message
+        assert "undo history is not saved" in app.message
+        assert len(sim.undo_log) == 0 and not app.undo()
+    finally:
+        app.close()
+
+
+def _raw(gl, maps) -> tuple[bytes, bytes]:
+    return gl.read(maps.height).tobytes(), gl.read(maps.normal).tobytes()
