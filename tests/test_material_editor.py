@@ -4,6 +4,7 @@ to file" keeping the user's comments and order, never the shipped presets."""
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import tomllib
@@ -137,6 +138,14 @@ def test_predicted_dent_is_eqs_2_to_5_by_hand():
     # clay at any real throw is clamped to its 30 mm bound.
     clay = predict_dent(steel, r, v, lib.materials["clay"])
     assert clay.plate_m == 0.03 and clay.plate_bound
+    # ... and a 2 cm clay plate (the panel's) to its thickness: no dent goes through a body.
+    thin = predict_dent(steel, r, v, lib.materials["clay"], plate_thickness=0.02)
+    assert thin.plate_m == 0.02 and thin.plate_bound
+    # A 5 mm ball of a clay ten times softer (k = 0.1 m/(N*s)) thrown into steel at 300 m/s
+    # (k (j - Y) = 57 mm): bounded by its own 10 mm across, not clay's 30 mm.
+    softer = dataclasses.replace(lib.materials["clay"], k=0.1)
+    ball = predict_dent(softer, 0.005, 300.0, steel)
+    assert ball.ball_m == pytest.approx(0.01) and ball.ball_bound
     # Below the threshold: a 1 cm ball at 0.5 m/s (j = 0.033 N*s < Y of steel, 1.5 N*s).
     assert predict_dent(steel, 0.01, 0.5, steel).plate_m == 0.0
 

@@ -43,6 +43,8 @@ STATE_DIR = Path("dentdemo_state")
 GLTF_FILE = Path("dentdemo.glb")
 #: Where the material editor saves when the demo was given no --materials file.
 MATERIALS_FILE = Path("dentdemo_materials.toml")
+#: The panel's plates ("add plate at target"), and the ones the predicted dents are for, m.
+PLATE_THICKNESS = 0.02
 
 
 @dataclass
@@ -198,7 +200,9 @@ class DemoController:
         p = self.panel
         ball = self.materials.get(p.ball_material)
         return [
-            predict_dent(ball, p.ball_radius, p.throw_speed, self.materials.materials[name])
+            predict_dent(
+                ball, p.ball_radius, p.throw_speed, self.materials.materials[name], PLATE_THICKNESS
+            )
             for name in self.materials.names()
         ]
 
@@ -351,7 +355,7 @@ class DemoController:
         t = self.camera.target
         spec = BodySpec(
             id=body_id,
-            shape=Plate(inputs.checked(self.panel).plate_side, thickness=0.02),
+            shape=Plate(inputs.checked(self.panel).plate_side, thickness=PLATE_THICKNESS),
             material=self.materials.get(self.panel.plate_material),
             position=(float(t[0]), 0.02, float(t[2])),
             static=True,

@@ -25,27 +25,28 @@ class PredictedDent:
     ball_m: float
     #: The impulse eq. 2 gives with eps = 1 (what eq. 4 dents by), N*s.
     j_elastic: float
-    #: Whether a dent is its material's max_dent_depth_m (eq. 4 asked for more).
+    #: Whether a dent is its bound, the material's max_dent_depth_m or the body's thickness
+    #: (eq. 4 asked for more).
     plate_bound: bool = False
     ball_bound: bool = False
 
 
-def predict_dent(ball: Material, radius: float, speed: float, plate: Material) -> PredictedDent:
+def predict_dent(
+    ball: Material, radius: float, speed: float, plate: Material, plate_thickness: float = math.inf
+) -> PredictedDent:
     """A solid ball of `radius` (m) and `ball`'s density hitting a static plate along its normal
     at `speed` (m/s): eq. 2 with eps = 1 and 1/m_plate = 0 gives |j| = 2 m v; eq. 4 (with eq. 3's
-    k and eq. 5's Y of each material, and its bound) gives each body's dent."""
+    k and eq. 5's Y of each material, and its bound) gives each body's dent, never deeper than
+    the body is thick (the plate's `plate_thickness`, the ball's 2 r: mesh/thickness.py)."""
     mass = ball.density * 4.0 / 3.0 * math.pi * radius**3  # kg
     # The plate is body A (static), the ball B coming down onto it; N points from A to B.
     j1 = float(normal_impulse((0.0, 1.0, 0.0), (0.0, 0.0, 0.0), (0.0, -speed, 0.0), 0, 1 / mass, 1))
-    plate_m = float(dent_depth(j1, plate.k, plate.Y, plate.max_dent_depth))
-    ball_m = float(dent_depth(j1, ball.k, ball.Y, ball.max_dent_depth))
+    plate_bound = min(plate.max_dent_depth, plate_thickness)
+    ball_bound = min(ball.max_dent_depth, 2.0 * radius)
+    plate_m = float(dent_depth(j1, plate.k, plate.Y, plate_bound))
+    ball_m = float(dent_depth(j1, ball.k, ball.Y, ball_bound))
     return PredictedDent(
-        plate.name,
-        plate_m,
-        ball_m,
-        j1,
-        plate_m >= plate.max_dent_depth,
-        ball_m >= ball.max_dent_depth,
+        plate.name, plate_m, ball_m, j1, plate_m >= plate_bound, ball_m >= ball_bound
     )
 
 

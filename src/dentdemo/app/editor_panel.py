@@ -79,7 +79,7 @@ def editor_window(imgui: Any, app: DemoController) -> None:
             imgui.table_set_column_index(0)
             imgui.text(dent.plate_material)
             imgui.table_set_column_index(1)
-            bound = " (the plate's bound)" if dent.plate_bound else ""
+            bound = " (bound: its material or 2 cm plate)" if dent.plate_bound else ""
             imgui.text(f"{dent.plate_m * 1e3:.3f}{bound}")
         imgui.end_table()
     imgui.end()
