@@ -5,13 +5,15 @@ out alone, from the same start). Oracle: the same hits pressed one at a time on 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import Carver
-from dentdemo.model.shapes import Plate, Sphere
-from surface_helpers import DENTED, Bodies, heights, press_mesh, translation
+from dentdemo.model.shapes import Capsule, Plate, Sphere
+from surface_helpers import DENTED, Bodies, heights, press_mesh, rotation, translation
 
 DOWN = np.array([0.0, -1.0, 0.0])
 #: Well apart on a 1 m plate: footprints (and the normals' ring) never meet.
@@ -158,13 +160,26 @@ def test_press_many_in_the_public_api(gl):
 
 def _sphere_press(bodies, kind: str, degrees: float):
     """A ball into a plate, tilted `degrees` (both bodies dented), or a ball into a ball whose
-    contact lies `degrees` round from the press direction (towards the target's silhouette)."""
+    contact lies `degrees` round from the press direction (towards the target's silhouette);
+    "capsule-...": a capsule (radius 4 cm, 6 cm between its ends) as the ball, lying tilted so
+    that a hemisphere presses ("capsule-plate") or its side ("capsule-side")."""
     import math
 
     from surface_helpers import rotation
 
     r = 0.04
     t = math.radians(degrees)
+    if kind.startswith("capsule"):
+        tool = bodies.make(press_mesh(Capsule(r, 0.06), 2), 256)
+        target = bodies.make(press_mesh(Plate(0.5), 2), 512)
+        direction = np.array([math.sin(t), -math.cos(t), 0.0])
+        if kind == "capsule-plate":  # its axis 30 degrees off vertical: the lower hemisphere
+            centre = np.array([0.0, r + 0.03 * math.cos(math.radians(30)), 0.0])
+            pose = rotation((1, 0, 0), 90 - 30)
+            tool.model = translation(centre) @ pose
+        else:  # its axis level: the straight side touches along a line
+            tool.model = translation((0.0, r, 0.0)) @ rotation((0, 1, 0), 25)
+        return target, tool, ContactFrame(np.zeros(3), direction), 0.006, 0.002
     tool = bodies.make(press_mesh(Sphere(r), 2), 256)
     if kind == "plate":
         target = bodies.make(press_mesh(Plate(0.5), 2), 512)
@@ -179,17 +194,28 @@ def _sphere_press(bodies, kind: str, degrees: float):
 
 
 @pytest.mark.parametrize(
-    "kind,degrees", [("plate", 0), ("plate", 25), ("plate", 45), ("ball", 0), ("ball", 50)]
+    "kind,degrees",
+    [
+        ("plate", 0),
+        ("plate", 25),
+        ("plate", 45),
+        ("ball", 0),
+        ("ball", 50),
+        ("capsule-plate", 0),
+        ("capsule-plate", 30),
+        ("capsule-side", 0),
+        ("capsule-side", 20),
+    ],
 )
 def test_spheres_drawn_as_quads_carve_as_their_facets_did(gl, bodies, kind, degrees):
-    """Passes 2 and 3 draw a built-in sphere as one quad over its extent and find its exact
-    surface per pixel; the dents match those of the sphere drawn as its facets (which found the
-    same exact surface within each facet's pixels), to 1e-6 m, on both bodies."""
+    """Passes 2 and 3 draw a built-in sphere or capsule as one quad over its extent and find its
+    exact surface per pixel; the dents match those of the solid drawn as its facets (which found
+    the same exact surface within each facet's pixels), to 1e-6 m, on both bodies."""
     carver = Carver(gl)
     try:
         results = []
         for quads in (False, True):
-            carver.sphere_quads = quads
+            carver.swept_quads = quads
             target, tool, contact, depth, tool_depth = _sphere_press(bodies, kind, degrees)
             assert carver.carve(target, tool, contact, depth, tool_depth)
             results.append((heights(gl, target), heights(gl, tool)))
@@ -200,11 +226,12 @@ def test_spheres_drawn_as_quads_carve_as_their_facets_did(gl, bodies, kind, degr
         carver.release()
 
 
-def test_a_dented_sphere_drawn_as_a_quad_reads_its_own_heights(gl, bodies):
-    """The quad path finds a sphere's texel from the point itself (sphere_uv.glsl), the facet
-    path from the facet's uv: with heights already on the ball (a smooth pattern, up to 1 mm),
-    the two give the same dent in the plate where they pick the same texel, and never differ by
-    more than the pattern changes over one texel."""
+@pytest.mark.parametrize("shape", ["sphere", "capsule-end", "capsule-side"])
+def test_a_dented_sphere_drawn_as_a_quad_reads_its_own_heights(gl, bodies, shape):
+    """The quad path finds a sphere's (capsule's) texel from the point itself (sphere_uv.glsl,
+    capsule_uv.glsl), the facet path from the facet's uv: with heights already on the tool (a
+    smooth pattern, up to 1 mm), the two give the same dent in the plate where they pick the
+    same texel, and never differ by more than the pattern changes over one texel."""
     carver = Carver(gl)
     size = 256
     u = (np.arange(size) + 0.5) / size
@@ -213,10 +240,17 @@ def test_a_dented_sphere_drawn_as_a_quad_reads_its_own_heights(gl, bodies):
     try:
         results = []
         for quads in (False, True):
-            carver.sphere_quads = quads
+            carver.swept_quads = quads
             target = bodies.make(press_mesh(Plate(0.5), 2), 512)
-            tool = bodies.make(press_mesh(Sphere(0.04), 2), size, initial_height=pattern)
-            tool.model = translation((0.0, 0.04, 0.0))
+            solid = Sphere(0.04) if shape == "sphere" else Capsule(0.04, 0.06)
+            tool = bodies.make(press_mesh(solid, 2), size, initial_height=pattern)
+            if shape == "capsule-end":  # axis 30 degrees off vertical: a hemisphere presses
+                tool.model = translation((0.0, 0.04 + 0.03 * math.cos(math.radians(30)), 0.0))
+                tool.model = tool.model @ rotation((1, 0, 0), 60)
+            elif shape == "capsule-side":  # axis level, turned: the straight side presses
+                tool.model = translation((0.0, 0.04, 0.0)) @ rotation((0, 1, 0), 25)
+            else:
+                tool.model = translation((0.0, 0.04, 0.0))
             carver.carve(target, tool, ContactFrame(np.zeros(3), DOWN), 0.006)
             results.append(heights(gl, target))
         diff = np.abs(results[0] - results[1])

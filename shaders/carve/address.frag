@@ -26,8 +26,8 @@ bool behind_tool(float bumped) {
     return tool.a < 0.5 * NO_FRONT && bumped < tool.a - u_advance - FRONT_TOLERANCE;
 }
 
-#if QUAD  // a built-in sphere as one quad: where the pixel's view line enters the exact solid
-#include "sphere_uv.glsl"
+#if QUAD  // a built-in sphere or capsule as one quad: where the pixel's view line enters the exact solid
+#include "quad_uv.glsl"
 uniform float u_near_clip;  // surface.vert's clip distance, done here: view depth, metres
 
 void main() {
@@ -37,7 +37,7 @@ void main() {
     if (depth < u_near_clip) discard;  // missed, or nearer than the slab
     vec3 p = line + u_forward * depth, n;
     swept_snap(p, n);
-    vec2 uv = sphere_uv(p);
+    vec2 uv = quad_uv(p);
     float bumped = bumped_depth(depth, texelFetch(u_height, texel_of(uv, size), 0).r, n, u_forward);
     if (behind_tool(bumped)) discard;
     gl_FragDepth = window_depth(bumped);

@@ -1,6 +1,6 @@
 // The orthographic collision camera (world space, metres).
 #ifndef QUAD
-#define QUAD 0  // 1: a built-in sphere drawn as one quad (quad.vert) in passes 2 and 3
+#define QUAD 0  // 1, 2: a built-in sphere, capsule drawn as one quad (quad.vert) in passes 2, 3
 #endif
 uniform vec3 u_eye;          // camera origin
 uniform vec3 u_right;        // unit; screen +x

@@ -16,14 +16,14 @@ uniform sampler2D u_height;  // tool height map, R32F metres
 
 out vec4 f_tool;  // (back view depth m, coverage 1, 0, front view depth m)
 
-#if QUAD  // a built-in sphere as one quad: both faces of the exact solid in one fragment
-#include "sphere_uv.glsl"
+#if QUAD  // a built-in sphere or capsule as one quad: both faces of the exact solid in one fragment
+#include "quad_uv.glsl"
 
 // The bumped view depth where the pixel's view line enters (or leaves) the solid.
 float bumped_at(vec3 line, float depth, ivec2 size) {
     vec3 p = line + u_forward * depth, n;
     swept_snap(p, n);
-    float h = texelFetch(u_height, texel_of(sphere_uv(p), size), 0).r;
+    float h = texelFetch(u_height, texel_of(quad_uv(p), size), 0).r;
     return bumped_depth(depth, h, n, u_forward);
 }
 

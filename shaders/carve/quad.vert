@@ -1,5 +1,5 @@
 #version 330 core
-// Passes 2 and 3 for a built-in sphere (QUAD 1): one quad over the solid's extent in the
+// Passes 2 and 3 for a built-in sphere or capsule (QUAD 1, 2): one quad over the solid's extent in the
 // collision camera instead of its facets; the fragment shader finds where each pixel's view line
 // enters and leaves the exact solid (swept.glsl), so the facets' count changes nothing.
 #include "camera.glsl"

@@ -3,8 +3,6 @@
 // from the point itself: passes drawn as one quad (QUAD 1) have no facet to interpolate it from.
 // CUBE_FACE_N, _A, _B (vec3[6]: each face's normal and its s and t axes) and ATLAS_GUTTER come
 // from primitives.py as defines.
-uniform mat3 u_swept_local;  // local from world, for a direction (the body's pose inverted)
-
 vec2 sphere_uv(vec3 world) {
     vec3 q = u_swept_local * (world - u_swept_a);
     vec3 m = abs(q);

@@ -24,9 +24,9 @@ from dentdemo.carve.texel_passes import (
     VARIANT_KEYS,
     camera_uniforms,
     clip_uniforms,
-    is_sphere,
     is_swept,
     model_uniforms,
+    quad_kind,
     rebuild_normals,
     swept_uniforms,
     texture_space_passes,
@@ -223,7 +223,7 @@ class Carver:
         self.scratch = _Scratch(gl.ctx, (width, width // 2))
         atlas = _sphere_atlas()
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
-        #: is a sphere drawn as one quad: QUAD).
+        #: is a sphere or capsule drawn as one quad: QUAD 1, 2).
         self._surface = {
             (name, swept, quad): Pass(
                 name,
@@ -239,12 +239,12 @@ class Carver:
                 VARIANT_KEYS,
             )
             for name, (state, samplers) in _SURFACE_PASSES.items()
-            for swept, quad in ((False, False), (True, False), (True, True))
+            for swept, quad in ((False, 0), (True, 0), (True, 1), (True, 2))
         }
         self._quad_vaos: dict[int, moderngl.VertexArray] = {}
-        #: Draw built-in spheres in passes 2 and 3 as one quad each (their facets when False:
-        #: the tests compare the two).
-        self.sphere_quads = True
+        #: Draw built-in spheres and capsules in passes 2 and 3 as one quad each (their facets
+        #: when False: the tests compare the two).
+        self.swept_quads = True
         self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
@@ -400,7 +400,7 @@ class Carver:
             loose=self.loose_camera,
             exact_lists=self.exact_lists,
             advance=depth,
-            tool_list=not (self.sphere_quads and is_sphere(tool.gpu_mesh.mesh)),
+            tool_list=not (self.swept_quads and quad_kind(tool.gpu_mesh.mesh)),
         )
         if camera is None:
             return None
@@ -443,7 +443,8 @@ class Carver:
             body = job.target if name == "address" else job.tool
             triangles = job.camera.target_texels if name == "address" else job.camera.tool_view
             uniforms = job.target_uniforms if name == "address" else job.tool_uniforms
-            quad = self.sphere_quads and bool(uniforms.get("u_sphere"))
+            kind = uniforms.get("u_quad", 0)
+            quad = kind if self.swept_quads and isinstance(kind, int) else 0
             draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
             item = (job.viewport, draw, (body.maps.height, *inputs), uniforms)
             variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)

@@ -123,13 +123,13 @@ def clip_uniforms(
 
 
 #: Keys of the carve's uniform dicts that pick a pass's variant (SWEPT, QUAD) and name no uniform.
-VARIANT_KEYS = frozenset({"u_swept", "u_sphere"})
+VARIANT_KEYS = frozenset({"u_swept", "u_quad"})
 
 
 def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
     """A built-in sphere or capsule's own solid (world metres) for the passes that put points on
     its smooth surface; other meshes keep their facets (`u_swept` false). `u_swept` picks the
-    passes' SWEPT variant and `u_sphere` their QUAD variant; the programs have neither uniform."""
+    passes' SWEPT variant and `u_quad` their QUAD variant; the programs have neither uniform."""
     bound = mesh.bound
     if bound is None or bound.segment is None or not is_swept(mesh):
         return {"u_swept": False}
@@ -137,15 +137,19 @@ def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
     ends = bound.segment @ m[:3, :3].T + m[:3, 3]
     # The solid's radius scales with the pose's largest column (a rotation times a scale).
     scale = float(np.sqrt((m[:3, :3] ** 2).sum(axis=0).max()))
-    return {
+    uniforms: dict[str, object] = {
         "u_swept": True,
         "u_swept_a": tuple(ends[0]),
         "u_swept_b": tuple(ends[1]),
         "u_swept_radius": bound.radius * scale,
-        # A sphere (both ends one point): passes 2 and 3 draw it as one quad (QUAD 1).
-        "u_sphere": is_sphere(mesh),
+        # Passes 2 and 3 draw a sphere (QUAD 1) or a capsule (QUAD 2) as one quad.
+        "u_quad": quad_kind(mesh),
         "u_swept_local": inverse3(m[:3, :3]).T.astype("f4").tobytes(),  # column-major
     }
+    if uniforms["u_quad"] == 2:  # capsule_uv.glsl: local radius, half length, rows
+        half = float(np.linalg.norm(bound.segment[1] - bound.segment[0])) / 2
+        uniforms["u_capsule"] = (bound.radius, half, float(bound.rings))
+    return uniforms
 
 
 def is_swept(mesh: Mesh) -> bool:
@@ -154,10 +158,15 @@ def is_swept(mesh: Mesh) -> bool:
     return bound is not None and bound.exact and bound.segment is not None
 
 
-def is_sphere(mesh: Mesh) -> bool:
-    """A built-in sphere: its own solid is a sphere (both ends of its segment one point)."""
-    segment = mesh.bound.segment if is_swept(mesh) and mesh.bound is not None else None
-    return segment is not None and bool(np.array_equal(segment[0], segment[1]))
+def quad_kind(mesh: Mesh) -> int:
+    """How passes 2 and 3 may draw a built-in shape as one quad (its QUAD variant): 1 a sphere
+    (both ends of its segment one point), 2 a capsule (its atlas's profile rows known), 0 not."""
+    bound = mesh.bound
+    if not is_swept(mesh) or bound is None or bound.segment is None:
+        return 0
+    if np.array_equal(bound.segment[0], bound.segment[1]):
+        return 1
+    return 2 if bound.rings > 0 else 0
 
 
 def model_uniforms(model: NDArray[np.float64]) -> dict[str, object]:

@@ -39,6 +39,9 @@ class Bound:
     #: True when the swept sphere is the shape's own surface (sphere, capsule), which the carve
     #: then uses instead of the facets; False where it only holds it (cylinder).
     exact: bool = False
+    #: A built-in capsule's profile rows per hemisphere (its atlas's v follows them: the
+    #: carve's capsule_uv.glsl), 0 for any other shape.
+    rings: int = 0
     #: An open shape's material behind its faces, metres (a plate's thickness under its top face:
     #: mesh/thickness.py bounds dents by it; 0: none known, the ground).
     depth: float = 0.0

@@ -163,7 +163,10 @@ def capsule(radius: float, length: float, around: int = 64, rings: int = 16) -> 
     )
     mesh = _revolve("capsule", [(r, z, n)], around)
     mesh.bound = Bound(
-        segment=np.array([[0.0, 0.0, -half], [0.0, 0.0, half]]), radius=radius, exact=True
+        segment=np.array([[0.0, 0.0, -half], [0.0, 0.0, half]]),
+        radius=radius,
+        exact=True,
+        rings=rings,
     )
     return mesh
 
