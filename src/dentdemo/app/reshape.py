@@ -23,18 +23,33 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.mesh.mesh import Mesh
+from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.mesh.thickness import vertex_thickness
 
 #: A body's collision shape is rebuilt once its deepest dent passes this share of its size (the
 #: radius of its bounding sphere about its local origin), and again each time it deepens by this
-#: share more.
-RESHAPE_FRACTION = 0.05
+#: share more: deep dents only (a dented shape costs ODE a trimesh's contacts).
+RESHAPE_FRACTION = 0.25
+
+#: How finely a built-in shape's collision proxy is cut (ODE's trimesh contacts cost per
+#: triangle: a sphere of 3 x 3 cells a cube face has 108 triangles).
+COLLISION = Tessellation(sphere=3, around=12, rings=3)
 
 #: Bisection steps for where a point leaves the tool's solid (the interval halves each step:
 #: 2^-30 of the depth bound).
 _STEPS = 30
 
 Field = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+
+
+def proxy_mesh(shape: object, mesh: Mesh) -> Mesh:
+    """The mesh whose vertices follow a body's dents: a built-in shape cut at COLLISION; a loaded
+    mesh (`mesh`, the body's own) as it is."""
+    from dentdemo.model.shapes import MeshFile
+
+    if isinstance(shape, MeshFile):
+        return mesh
+    return shape_mesh(shape, COLLISION)  # type: ignore[arg-type]
 
 
 def sphere_field(centre: NDArray[np.float64], radius: float) -> Field:
