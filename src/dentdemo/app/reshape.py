@@ -16,6 +16,7 @@ of 40 MB for this alone), fills the pits a small ball leaves, and gained nothing
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -42,14 +43,30 @@ _STEPS = 30
 Field = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 
-def proxy_mesh(shape: object, mesh: Mesh) -> Mesh:
-    """The mesh whose vertices follow a body's dents: a built-in shape cut at COLLISION; a loaded
-    mesh (`mesh`, the body's own) as it is."""
-    from dentdemo.model.shapes import MeshFile
+def proxy_for(shape: object, mesh: Mesh) -> DentProxy:
+    """A body's fresh proxy: a built-in shape cut at COLLISION (a sphere scaled from one unit
+    sphere, made once), a loaded mesh (`mesh`, the body's own) as it is."""
+    from dentdemo.model.shapes import MeshFile, Sphere
 
     if isinstance(shape, MeshFile):
-        return mesh
-    return shape_mesh(shape, COLLISION)  # type: ignore[arg-type]
+        return DentProxy.of(mesh)
+    if isinstance(shape, Sphere):
+        unit = _unit_proxy()
+        return DentProxy(
+            unit.points * shape.radius,
+            unit.normals,
+            unit.thickness * shape.radius,
+            unit.triangles,
+            unit.size * shape.radius,
+        )
+    return DentProxy.of(shape_mesh(shape, COLLISION))  # type: ignore[arg-type]
+
+
+@functools.cache
+def _unit_proxy() -> DentProxy:
+    from dentdemo.model.shapes import Sphere
+
+    return DentProxy.of(shape_mesh(Sphere(1.0), COLLISION))
 
 
 def sphere_field(centre: NDArray[np.float64], radius: float) -> Field:

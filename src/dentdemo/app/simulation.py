@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dentdemo import outputs
-from dentdemo.app.reshape import DentProxy, proxy_mesh, shape_field
+from dentdemo.app.reshape import DentProxy, proxy_for, shape_field
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
@@ -315,7 +315,7 @@ class Simulation:
                 continue
             proxy = self.proxies.get(body_id)
             if proxy is None:
-                proxy = DentProxy.of(proxy_mesh(body.spec.shape, body.mesh))
+                proxy = proxy_for(body.spec.shape, body.mesh)
                 self.proxies[body_id] = proxy
             proxy.press(model, field, direction, depth, body.spec.material.max_dent_depth)
             if proxy.due():

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo import outputs
-from dentdemo.app.reshape import DentProxy, proxy_mesh
+from dentdemo.app.reshape import proxy_for
 from dentdemo.app.simulation import (
     CARVED_POINTS_KEPT,
     CarveRequest,
@@ -581,9 +581,8 @@ def _shapes(
             raise t.fail(body_id, "is not a dynamic dentable body of world.order")
         r = t.table_at(body_id)
         body = sim.bodies.get(body_id)
-        vertices = len(
-            proxy_mesh(spec.shape, body.mesh if body else shape_mesh(spec.shape)).positions
-        )
+        own = body.mesh if body is not None else shape_mesh(spec.shape)
+        vertices = len(proxy_for(spec.shape, own).points)
         deepest = spec.material.max_dent_depth
         points = r.items("points", vertices)
         if not all(isinstance(k, int) and not isinstance(k, bool) for k in points) or (
@@ -646,7 +645,7 @@ def apply_state(sim: Simulation, state: SavedState) -> None:
         rebuild_all_normals(sim.gl, body.gpu_mesh, body.maps)
     for body_id, (points, inward, shaped, rebuilt_at) in state.shapes.items():
         body = sim.bodies[body_id]
-        proxy = sim.proxies[body_id] = DentProxy.of(proxy_mesh(body.spec.shape, body.mesh))
+        proxy = sim.proxies[body_id] = proxy_for(body.spec.shape, body.mesh)
         proxy.inward[points], proxy.shaped[points] = inward, shaped
         proxy.rebuilt_at = rebuilt_at
         if rebuilt_at > 0.0:
