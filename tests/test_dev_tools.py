@@ -5,48 +5,29 @@ Xvfb)."""
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
+from cli_helpers import python_json
 from dentdemo.app.controller import DemoController
 from dentdemo.app.loop import FrameLoop, ImageBackend
 from dentdemo.app.profiler import PHASES, Profiler
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
 from dentdemo.render.camera import OrbitCamera
+from scene_text import GROUND, ball, camera, plate
 
-SCENE = """[camera]
-eye = [0.0, 1.0, 1.5]
-target = [0.0, 0.0, 0.0]
-
-[[body]]
-id = "ground"
-shape = "plane"
-material = "oak"
-
-[[body]]
-id = "plate"
-shape = "plate"
-side = 0.4
-thickness = 0.02
-material = "lead"
-position = [0.0, 0.02, 0.0]
-static = true
-texels_per_metre = 1024
-
-[[body]]
-id = "ball"
-shape = "sphere"
-radius = 0.04
-material = "steel"
-position = [0.0, 0.5, 0.0]
-"""
+SCENE = "\n".join(
+    [
+        camera("[0.0, 1.0, 1.5]"),
+        GROUND,
+        plate("lead", texels=1024),
+        ball("steel", "[0.0, 0.5, 0.0]"),
+    ]
+)
 
 
 @pytest.fixture
@@ -164,15 +145,7 @@ def test_recording_the_window_writes_an_mp4_at_the_fixed_step(xvfb, tmp_path):
     scene.write_text(SCENE)
     out = tmp_path / "clip.mp4"
     env = {**os.environ, "DISPLAY": xvfb}
-    result = subprocess.run(
-        [sys.executable, "-c", _RECORD, str(scene), str(out)],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert result.returncode == 0, result.stderr
-    report = json.loads(result.stdout.strip().splitlines()[-1])
+    report = python_json(_RECORD, scene, out, env=env)
     # One fixed step (1/60 s) per frame while recording, whatever the wall clock did.
     assert report["steps"] == 30
     assert report["t"] == pytest.approx(30 / 60, abs=1e-9)

@@ -16,6 +16,7 @@ from dentdemo.app.controller import DemoController
 from dentdemo.app.watch import POLL_INTERVAL
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
+from scene_text import GROUND, ball, camera, plate
 
 #: A user file overriding steel (the shipped values but restitution and density) and adding a
 #: preset of its own.
@@ -39,36 +40,15 @@ friction = 0.9
 max_dent_depth_m = 0.02
 """
 
-SCENE = """[scene]
-name = "tiny"
-
-[camera]
-eye = [1.0, 0.8, 1.0]
-target = [0.0, 0.0, 0.0]
-
-[[body]]
-id = "ground"
-shape = "plane"
-material = "oak"
-
-[[body]]
-id = "plate"
-shape = "plate"
-side = 0.4
-thickness = 0.02
-material = "steel"
-position = [0.0, 0.02, 0.0]
-static = true
-texels_per_metre = 256
-
-[[body]]
-id = "ball"
-shape = "sphere"
-radius = 0.04
-material = "steel"
-position = [{x}, 0.3, 0.0]
-texels_per_metre = 256
-"""
+SCENE = "\n".join(
+    [
+        '[scene]\nname = "tiny"\n',
+        camera("[1.0, 0.8, 1.0]"),
+        GROUND,
+        plate("steel", texels=256),
+        ball("steel", "[{x}, 0.3, 0.0]", texels=256),
+    ]
+)
 
 SECOND_BALL = """
 [[body]]

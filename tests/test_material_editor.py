@@ -19,25 +19,13 @@ from dentdemo.model.materials import builtin_materials_path, load_materials
 from dentdemo.model.materials_keys import MATERIAL_NUMBERS
 from dentdemo.model.materials_save import save_preset
 from dentdemo.model.scene import load_scene
+from scene_text import GROUND, TIN, plate
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENE = """[[body]]
-id = "ground"
-shape = "plane"
-material = "oak"
+SCENE = GROUND + "\n" + plate("steel", texels=256)
 
-[[body]]
-id = "plate"
-shape = "plate"
-side = 0.4
-thickness = 0.02
-material = "steel"
-position = [0.0, 0.02, 0.0]
-static = true
-texels_per_metre = 256
-"""
-
-USER = """# My presets. This comment, the order and the spelling of untouched numbers must survive.
+USER = (
+    """# My presets. This comment, the order and the spelling of untouched numbers must survive.
 
 [materials.steel]  # overriding the shipped steel
 youngs_modulus_Pa = 200e9
@@ -48,15 +36,9 @@ restitution = 0.6     # keep this note
 friction = 0.6
 max_dent_depth_m = 0.01
 
-[materials.tin]
-youngs_modulus_Pa = 50e9
-yield_stress_Pa = 10e6
-plastic_modulus_Pa = 0.5e9
-density_kg_m3 = 7300
-restitution = 0.3
-friction = 0.5
-max_dent_depth_m = 0.02
 """
+    + TIN
+)
 
 
 def _app(gl, tmp_path: Path, user: Path | None = None) -> DemoController:

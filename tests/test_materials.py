@@ -9,19 +9,11 @@ import pytest
 from cli_helpers import dentdemo
 from dentdemo.errors import ConfigError
 from dentdemo.model.materials import load_materials
+from scene_text import TIN
 
 ROOT = Path(__file__).resolve().parents[1]
 
-GOOD = """
-[materials.tin]
-youngs_modulus_Pa = 50e9
-yield_stress_Pa = 10e6
-plastic_modulus_Pa = 0.5e9
-density_kg_m3 = 7300
-restitution = 0.3
-friction = 0.5
-max_dent_depth_m = 0.02
-"""
+GOOD = "\n" + TIN
 
 
 def test_builtin_presets_cover_the_range():

@@ -5,14 +5,12 @@ Xvfb for the click."""
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import subprocess
-import sys
 
 import pytest
 
+from cli_helpers import python_json
 from dentdemo.app import inputs
 from dentdemo.app.controller import PanelState
 from dentdemo.resources import assets_dir
@@ -133,12 +131,5 @@ def test_a_click_on_the_panel_drops_no_ball(xvfb):
     """A click on the panel, before imgui has drawn a frame with the cursor there, drops nothing;
     the same click on the floor drops one ball."""
     env = {**os.environ, "DISPLAY": xvfb}
-    result = subprocess.run(
-        [sys.executable, "-c", _CLICKS, str(BALL_DROP)],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert result.returncode == 0, result.stderr
-    assert json.loads(result.stdout.strip().splitlines()[-1]) == {"on_panel": 0, "on_scene": 1}
+    clicks = python_json(_CLICKS, BALL_DROP, env=env, timeout=120)
+    assert clicks == {"on_panel": 0, "on_scene": 1}

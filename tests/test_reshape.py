@@ -20,6 +20,7 @@ from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
 from dentdemo.physics.ode import ode
 from dentdemo.physics.simulate import build_world
+from scene_text import GRAVITY, ball, plate, steel_like
 
 R = 0.04  # the ball, metres
 
@@ -67,35 +68,9 @@ def test_a_press_never_goes_through_the_body():
     assert proxy.due()
 
 
-MATERIALS = """[materials.m]
-youngs_modulus_Pa = 200e9
-yield_stress_Pa = 250e6
-plastic_modulus_Pa = 2.0e9
-density_kg_m3 = 7850
-restitution = 0.0
-friction = 0.5
-max_dent_depth_m = 0.05
-"""
+MATERIALS = steel_like("m", 0.05)
 
-SCENE = f"""[physics]
-gravity = [0.0, -9.81, 0.0]
-
-[[body]]
-id = "plate"
-shape = "plate"
-side = 4.0
-thickness = 0.02
-material = "m"
-position = [0.0, 0.02, 0.0]
-static = true
-
-[[body]]
-id = "ball"
-shape = "sphere"
-radius = {R}
-material = "m"
-position = [0.0, {{y}}, 0.0]
-"""
+SCENE = "\n".join([GRAVITY, plate("m", side=4.0), ball("m", "[0.0, {y}, 0.0]", radius=R)])
 
 
 def _push(tmp_path, flat: float) -> tuple[float, float, float, float]:

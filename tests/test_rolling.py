@@ -18,37 +18,13 @@ from dentdemo.errors import ConfigError
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
 from dentdemo.physics.simulate import build_world
+from scene_text import GRAVITY, ball, plate, steel_like
 
-MATERIALS = """[materials.roller]
-youngs_modulus_Pa = 200e9
-yield_stress_Pa = 250e6
-plastic_modulus_Pa = 2.0e9
-density_kg_m3 = 7850
-restitution = 0.0
-friction = 0.5
-rolling_friction = {crr}
-max_dent_depth_m = 0.01
-"""
+MATERIALS = steel_like("roller", 0.01, "rolling_friction = {crr}\n")
 
-SCENE = """[physics]
-gravity = [0.0, -9.81, 0.0]
-
-[[body]]
-id = "plate"
-shape = "plate"
-side = 4.0
-thickness = 0.02
-material = "roller"
-position = [0.0, 0.02, 0.0]
-static = true
-
-[[body]]
-id = "ball"
-shape = "sphere"
-radius = {radius}
-material = "roller"
-position = [0.0, {y}, 0.0]
-"""
+SCENE = "\n".join(
+    [GRAVITY, plate("roller", side=4.0), ball("roller", "[0.0, {y}, 0.0]", radius="{radius}")]
+)
 
 G = 9.81
 RADIUS = 0.04  # m

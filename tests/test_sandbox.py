@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from cli_helpers import dentdemo
+from cli_helpers import dentdemo, python_json
 from dentdemo.app.controller import DemoController
 from dentdemo.app.headless import render_headless
 from dentdemo.model.materials import load_materials
@@ -235,20 +235,9 @@ def test_window_framebuffer_is_single_sampled_without_depth(xvfb):
     """The window only receives finished frames. A multisampled default framebuffer (glfw's
     old default here was 4 samples) made every touch of the screen and every swap resolve 4
     samples: on llvmpipe under Xvfb, 5.9 ms per swap instead of 0.3."""
-    import json
-    import subprocess
-    import sys
 
     env = {**os.environ, "DISPLAY": xvfb}
-    result = subprocess.run(
-        [sys.executable, "-c", _WINDOW_FRAMEBUFFER, str(BALL_DROP)],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert result.returncode == 0, result.stderr
-    values = json.loads(result.stdout.strip().splitlines()[-1])
+    values = python_json(_WINDOW_FRAMEBUFFER, BALL_DROP, env=env)
     assert values == {"samples": 0, "depth_bits": 0}
 
 
