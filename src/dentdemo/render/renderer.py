@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -10,15 +11,17 @@ import numpy as np
 
 from dentdemo.carve.surface import GpuMesh
 from dentdemo.gl.context import GLContext, release
-from dentdemo.gl.passes import ALPHA_BLEND, Pass, PassState
+from dentdemo.gl.passes import ALPHA_BLEND, Pass, PassState, Sampled
 from dentdemo.gl.shaders import program
 from dentdemo.mesh import primitives
 from dentdemo.render.camera import NEAR, look_at, orthographic
+from dentdemo.render.displacement import displacement_path
 from dentdemo.render.environment import LEVELS, Environment, environment
 from dentdemo.render.frame import DrawItem, FrameDescription, Inset, RenderOptions
 from dentdemo.render.legend import legend_texture
 from dentdemo.render.looks import GROUND, surface_code
 from dentdemo.render.quality import Quality, preset
+from dentdemo.render.refine import cuts_for, refine
 
 GROUND_SIDE = 12.0  # m
 #: Half the side of the square the sun's shadow map covers, around the camera target, m.
@@ -47,7 +50,13 @@ LIT_SAMPLERS = (
     "u_radiance",
     "u_irradiance",
     "u_base_texture",
+    "u_displacement_map",
 )
+#: How an item's surface is drawn (the shaders' DISPLACE): as the mesh is, moved vertex by vertex
+#: on a finer mesh (render/refine.py), or cut and moved by the tessellation stages.
+FLAT, MESH, TESSELLATE = 0, 1, 2
+#: The tessellation stages of a displaced pass.
+TESSELLATION = ("render/displace.tesc", "render/displace.tese")
 
 
 @dataclass(frozen=True)
@@ -63,6 +72,10 @@ class _Frame:
     items: list[DrawItem]
     #: The checkered ground as an item, or None.
     ground: DrawItem | None
+    #: Per item: the metres a pixel spans at its nearest point, and how it is drawn (FLAT,
+    #: MESH or TESSELLATE; the shadow pass draws it the same way).
+    pixel_metres: list[float]
+    modes: list[int]
 
 
 class Renderer:
@@ -70,10 +83,18 @@ class Renderer:
     bytes). It knows nothing of the simulation: what to draw comes in the description."""
 
     def __init__(
-        self, gl: GLContext, size: tuple[int, int], quality: Quality | None = None
+        self,
+        gl: GLContext,
+        size: tuple[int, int],
+        quality: Quality | None = None,
+        displacement: str | None = None,
     ) -> None:
+        """`displacement`: "tessellation" or "mesh" (render/displacement.py); None: chosen by the
+        context and DENTDEMO_DISPLACEMENT."""
         self.gl = gl
         ctx = gl.ctx
+        #: How deep dents move the surface: "tessellation" or "mesh".
+        self.displacement = displacement_path(ctx, displacement)
         self.size = size
         self.quality = quality or preset(None, gl.software)
         samples = min(self.quality.msaa, ctx.max_samples)
@@ -102,8 +123,17 @@ class Renderer:
         self.shadow_texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.shadow_texture.compare_func = "<="  # hardware comparison: bilinear PCF per tap
         self.shadow = ctx.framebuffer(depth_attachment=self.shadow_texture)
-        depth = program(cache, ctx, "render/shadow.vert", "render/shadow.frag")
-        self._shadow = Pass("shadow", depth, SHADOW)
+        #: The shadow pass by how items are drawn (FLAT, MESH, TESSELLATE), made when needed.
+        self._shadows: dict[int, Pass] = {}
+        #: The height maps as displacement reads them: bilinear, clamped at the edges.
+        self._linear = ctx.sampler(
+            filter=(moderngl.LINEAR, moderngl.LINEAR), repeat_x=False, repeat_y=False
+        )
+        #: Finer render meshes of the MESH path, by source mesh and cuts per edge.
+        self._refined: weakref.WeakKeyDictionary[GpuMesh, dict[int, GpuMesh]] = (
+            weakref.WeakKeyDictionary()
+        )
+        self._edges: weakref.WeakKeyDictionary[GpuMesh, float] = weakref.WeakKeyDictionary()
         sky = program(
             cache, ctx, "util/fullscreen.vert", "render/sky.frag", defines={"AT_FAR_PLANE": 1}
         )
@@ -129,12 +159,18 @@ class Renderer:
         self._lit_constants = {"u_levels": LEVELS, "u_exposure": EXPOSURE}
 
     def _lit_pass(
-        self, options: RenderOptions, textured: bool = False, ground: bool = False
+        self,
+        options: RenderOptions,
+        textured: bool = False,
+        ground: bool = False,
+        mode: int = FLAT,
     ) -> Pass:
         """The body pass for these options, for bodies with or without their own base-colour
-        image, or for the ground: a shader variant each (compile-time switches: no cost when
-        off), under BODIES state (filled, or edges only in the wireframe view)."""
+        image, or for the ground, drawn FLAT, MESH or TESSELLATE: a shader variant each
+        (compile-time switches: no cost when off), under BODIES state (filled, or edges only in
+        the wireframe view)."""
         defines: dict[str, object] = {
+            "DISPLACE": mode,
             "PARALLAX": int(options.parallax),
             "VIEW": int(options.view),
             "SHADOW_TAPS": self.quality.shadow_taps,
@@ -143,9 +179,28 @@ class Renderer:
             "GROUND": int(ground),
         }
         lit = program(
-            self.gl.cache, self.gl.ctx, "render/lit.vert", "render/lit.frag", defines=defines
+            self.gl.cache,
+            self.gl.ctx,
+            "render/lit.vert",
+            "render/lit.frag",
+            defines=defines,
+            tessellation=TESSELLATION if mode == TESSELLATE else None,
         )
         return Pass("bodies", lit, replace(BODIES, wireframe=options.wireframe), LIT_SAMPLERS)
+
+    def _shadow_pass_for(self, mode: int) -> Pass:
+        """The shadow pass for items drawn FLAT, MESH or TESSELLATE."""
+        if mode not in self._shadows:
+            depth = program(
+                self.gl.cache,
+                self.gl.ctx,
+                "render/shadow.vert",
+                "render/shadow.frag",
+                defines={"DISPLACE": mode, "SHADOW": 1},
+                tessellation=TESSELLATION if mode == TESSELLATE else None,
+            )
+            self._shadows[mode] = Pass("shadow", depth, SHADOW, ("u_displacement_map",))
+        return self._shadows[mode]
 
     @property
     def aspect(self) -> float:
@@ -194,64 +249,171 @@ class Renderer:
             model = np.eye(4)
             model[1, 3] = description.ground_y
             ground = DrawItem(self._ground, model, GROUND)
+        items = list(description.items)
+        rows = self.shade_size[1]
+        pixel_metres = [
+            camera.metres_per_pixel(
+                max(float(np.linalg.norm(item.model[:3, 3] - camera.eye)) - item.mesh.radius, NEAR),
+                rows,
+            )
+            for item in items
+        ]
+        options = description.options
+        modes = [self._mode(item, options, m) for item, m in zip(items, pixel_metres, strict=True)]
         return _Frame(
             description,
             view_proj,
             uniforms,
             environment(self.gl, tuple(light_dir)),
-            list(description.items),
+            items,
             ground,
+            pixel_metres,
+            modes,
         )
 
+    def _mode(self, item: DrawItem, options: RenderOptions, pixel_metres: float) -> int:
+        """FLAT unless displacement is on and the item's maps can hold a dent (or bump) at least
+        the preset's deep_pixels deep at its distance (the maps' bounds: the CPU does not know
+        where the dents are); then MESH or TESSELLATE, the path this renderer uses."""
+        maps = item.maps
+        if not options.displace or maps is None:
+            return FLAT
+        reach = max(maps.max_dent_depth, maps.max_height)  # m
+        if reach < self.quality.deep_pixels * pixel_metres:
+            return FLAT
+        return TESSELLATE if self.displacement == "tessellation" else MESH
+
+    def _drawer(
+        self, item: DrawItem, pixel_metres: float, mode: int
+    ) -> Callable[[moderngl.Program], None]:
+        """How to draw `item` with a pass's program: the coarsest mesh level whose chord error
+        stays under LEVEL_PIXELS of `pixel_metres`, as triangles, cut finer (MESH) or as
+        patches (TESSELLATE)."""
+        mesh = _level(item, pixel_metres)
+        if mode == TESSELLATE:
+            return lambda prog: mesh.vao(prog).render(moderngl.PATCHES)
+        if mode == MESH:
+            scale = float(np.linalg.norm(item.model[:3, :3], ord=2))  # world m per local m
+            q = self.quality
+            cuts = cuts_for(
+                self._edge(mesh) * scale, pixel_metres, q.segment_pixels, q.max_segments
+            )
+            mesh = self._cut(mesh, cuts)
+        return mesh.drawer(None, "")
+
+    def _edge(self, mesh: GpuMesh) -> float:
+        """The 90th percentile of the mesh's edge lengths, local metres."""
+        if mesh not in self._edges:
+            a, b, c = mesh.mesh.triangle_corners()
+            lengths = np.linalg.norm(np.concatenate([b - a, c - b, a - c]), axis=1)
+            self._edges[mesh] = float(np.percentile(lengths, 90))
+        return self._edges[mesh]
+
+    def _cut(self, mesh: GpuMesh, cuts: int) -> GpuMesh:
+        """`mesh` with each triangle cut into cuts^2 (made once, then kept)."""
+        if cuts == 1:
+            return mesh
+        kept = self._refined.setdefault(mesh, {})
+        if cuts not in kept:
+            kept[cuts] = GpuMesh(self.gl, refine(mesh.mesh, cuts))
+        return kept[cuts]
+
+    def _tessellation(self, view_proj: object, pixels_per_metre: float) -> dict[str, object]:
+        """The tessellation stages' uniforms for a pass seen through `view_proj`."""
+        q = self.quality
+        return {
+            "u_tess_view_proj": view_proj,
+            "u_pixels_per_metre": pixels_per_metre,
+            "u_segment_pixels": q.segment_pixels,
+            "u_max_level": float(q.max_segments),
+            "u_deep_pixels": q.deep_pixels,
+        }
+
     def _shadow_pass(self, frame: _Frame) -> None:
-        """Depth from the sun (the ground only receives shadows: nothing lies under it)."""
+        """Depth from the sun (the ground only receives shadows: nothing lies under it). Items
+        are drawn as in the body pass (FLAT, MESH or TESSELLATE), so the shadow moves with the
+        surface; the tessellation counts pixels of the shadow map."""
         self.shadow.clear(depth=1.0)
         if not frame.description.options.shadows:
             return
         side = self.shadow_texture.size[0]
         shadow_texel = 2.0 * LIGHT_HALF_EXTENT / side  # m
-        with self._shadow.batch(self.gl.ctx, self.shadow) as draw:
-            for item in frame.items:
-                uniforms = {**frame.uniforms, "u_model": _bytes(item.model)}
-                draw((0, 0, side, side), _level(item, shadow_texel).drawer(None, ""), (), uniforms)
+        tessellation = self._tessellation(
+            frame.uniforms["u_light_view_proj"], side / (2.0 * LIGHT_HALF_EXTENT)
+        )
+        for mode in (FLAT, MESH, TESSELLATE):
+            group = [i for i, m in enumerate(frame.modes) if m == mode]
+            if not group:
+                continue
+            with self._shadow_pass_for(mode).batch(self.gl.ctx, self.shadow) as draw:
+                for i in group:
+                    item = frame.items[i]
+                    uniforms = {**frame.uniforms, **tessellation, "u_model": _bytes(item.model)}
+                    draw(
+                        (0, 0, side, side),
+                        self._drawer(item, shadow_texel, mode),
+                        (self._displacement_map(item),),
+                        uniforms,
+                    )
 
     def _body_passes(self, frame: _Frame) -> None:
-        """The bodies without and with their own image, then the ground: what bodies cover of it
-        fails the depth test before shading."""
-        options, camera = frame.description.options, frame.description.camera
-        self.msaa.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
-        pixel_at_metre = 2.0 * np.tan(np.radians(camera.fov_deg) / 2) / self.shade_size[1]
-        plain = [item for item in frame.items if item.texture is None]
-        textured = [item for item in frame.items if item.texture is not None]
+        """The bodies without and with their own image, each drawn FLAT, MESH or TESSELLATE,
+        then the ground: what bodies cover of it fails the depth test before shading."""
+        description = frame.description
+        options, camera = description.options, description.camera
+        background = description.background
+        if background is None:
+            self.msaa.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        else:
+            self.msaa.clear(*background, 0.0, depth=1.0)
         per_frame = {
             **frame.uniforms,
             **self._lit_constants,
+            **self._tessellation(
+                frame.uniforms["u_view_proj"], camera.pixels_per_metre(self.shade_size[1])
+            ),
             "u_legend_depth": options.legend_depth,
         }
-        ground = [frame.ground] if frame.ground is not None else []
-        for group, variant in (
-            (plain, self._lit_pass(options)),
-            (textured, self._lit_pass(options, textured=True)),
-            (ground, self._lit_pass(options, ground=True)),
-        ):
+        groups = [
+            (
+                [
+                    i
+                    for i, item in enumerate(frame.items)
+                    if (item.texture is not None) == textured and frame.modes[i] == mode
+                ],
+                self._lit_pass(options, textured=textured, mode=mode),
+            )
+            for textured in (False, True)
+            for mode in (FLAT, MESH, TESSELLATE)
+        ]
+        for group, variant in groups:
             if not group:
                 continue
             with variant.batch(self.gl.ctx, self.msaa) as draw:
-                for item in group:
-                    distance = max(
-                        float(np.linalg.norm(item.model[:3, 3] - camera.eye)) - item.mesh.radius,
-                        NEAR,
-                    )
-                    mesh = _level(item, pixel_at_metre * distance)
+                for i in group:
+                    item = frame.items[i]
                     draw(
                         (0, 0, *self.shade_size),
-                        mesh.drawer(None, ""),
+                        self._drawer(item, frame.pixel_metres[i], frame.modes[i]),
                         self._lit_textures(item, frame),
                         {**per_frame, **self._lit_uniforms(item)},
                     )
+        if frame.ground is not None:
+            ground = frame.ground
+            self._lit_pass(options, ground=True).run(
+                self.gl.ctx,
+                self.msaa,
+                (0, 0, *self.shade_size),
+                ground.mesh.drawer(None, ""),
+                self._lit_textures(ground, frame),
+                {**per_frame, **self._lit_uniforms(ground)},
+            )
 
     def _sky_pass(self, frame: _Frame) -> None:
-        """Last, at the far plane, so that only the pixels no body covers run its shader."""
+        """Last, at the far plane, so that only the pixels no body covers run its shader; none
+        on a plain background."""
+        if frame.description.background is not None:
+            return
         light = frame.description.light
         uniforms = {
             "u_inverse_view_proj": _bytes(np.linalg.inv(frame.view_proj)),
@@ -327,7 +489,7 @@ class Renderer:
             {"u_rect": (8, 8, *texture.size), "u_viewport": self.size},
         )
 
-    def _lit_textures(self, item: DrawItem, frame: _Frame) -> tuple[moderngl.Texture, ...]:
+    def _lit_textures(self, item: DrawItem, frame: _Frame) -> tuple[Sampled, ...]:
         """The body pass's maps for `item`, in the order of LIT_SAMPLERS."""
         normal, height = (
             (item.maps.normal, item.maps.height)
@@ -336,7 +498,20 @@ class Renderer:
         )
         base = item.texture if item.texture is not None else self._flat_normal  # (unread)
         env = frame.env
-        return (normal, height, self.shadow_texture, env.radiance, env.irradiance, base)
+        displacement = self._displacement_map(item)
+        return (
+            normal,
+            height,
+            self.shadow_texture,
+            env.radiance,
+            env.irradiance,
+            base,
+            displacement,
+        )
+
+    def _displacement_map(self, item: DrawItem) -> tuple[moderngl.Texture, moderngl.Sampler]:
+        """The item's height map through the bilinear sampler (a flat stand-in without maps)."""
+        return (item.maps.height if item.maps is not None else self._flat_height, self._linear)
 
     def _lit_uniforms(self, item: DrawItem) -> dict[str, object]:
         """The body pass's per-item uniforms: look, pose, and the maps' scale and depth."""
@@ -389,8 +564,12 @@ class Renderer:
             self.shadow_texture,
             self._flat_normal,
             self._flat_height,
+            self._linear,
         )
         self._ground.release()
+        for kept in self._refined.values():
+            for mesh in kept.values():
+                mesh.release()
 
 
 def _level(item: DrawItem, metres_per_pixel: float) -> GpuMesh:
