@@ -26,19 +26,18 @@ def displacement_path(ctx: moderngl.Context, forced: str | None = None) -> str:
         raise DentdemoError(f"{where}: unknown path {choice!r} (known: {', '.join(PATHS)})")
     if choice == "tessellation" and ctx.version_code < TESSELLATION_GL:
         raise DentdemoError(
-            f"{where}=tessellation: this context is GL {ctx.version_code / 100:.1f}; "
-            "tessellation needs 4.0"
+            f"{where}=tessellation: this context is GL {ctx.version_code // 100}."
+            f"{ctx.version_code // 10 % 10}; tessellation needs 4.0"
         )
     return choice or ("tessellation" if ctx.version_code >= TESSELLATION_GL else "mesh")
 
 
 def describe(ctx: moderngl.Context) -> str:
-    """One line for `dentdemo info`."""
+    """One line for `dentdemo info`: the path and why."""
     path = displacement_path(ctx)
-    why = (
-        f"{ENV}={os.environ[ENV].strip()}"
-        if os.environ.get(ENV, "").strip()
-        else f"GL {ctx.version_code / 100:.1f}"
-    )
-    other = "mesh" if path == "tessellation" else "tessellation"
-    return f"{path} ({why}; {ENV}={other} forces the other)"
+    version = f"GL {ctx.version_code // 100}.{ctx.version_code // 10 % 10}"
+    if os.environ.get(ENV, "").strip():
+        return f"{path} (forced by {ENV}={path}; {version})"
+    if path == "mesh":
+        return f"mesh, a finer render mesh ({version} has no tessellation)"
+    return f"tessellation ({version}); {ENV}=mesh forces the finer-mesh fallback"
