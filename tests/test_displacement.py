@@ -8,6 +8,7 @@ scale comes from the same PNG: the widest row is the equator, 2R wide."""
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from types import SimpleNamespace
@@ -24,9 +25,9 @@ CHORD = 2.0 * np.sqrt(2.0 * R * D - D * D)  # m
 
 def _press_render(
     tmp_path: Path, *flags: str, quality: str = "high", env: dict[str, str] | None = None
-) -> np.ndarray:
-    """`indent` a 0.2 m box 12.5 mm into a 5 cm ball and `--render` it at 1280x720; the PNG's
-    alpha in [0, 1], rows top-down."""
+) -> tuple[np.ndarray, dict]:
+    """`indent` a 0.2 m box 12.5 mm into a 5 cm ball and `--render` it at 1280x720: the PNG's
+    alpha in [0, 1], rows top-down, and the summary's "render"."""
     out = tmp_path / "press"
     png = tmp_path / "side.png"
     result = dentdemo(
@@ -38,7 +39,8 @@ def _press_render(
     assert result.returncode == 0, result.stderr
     image = np.asarray(Image.open(png))
     assert image.shape == (720, 1280, 4)
-    return image[:, :, 3].astype(np.float64) / 255.0
+    summary = json.loads((out / "summary.json").read_text())["render"]
+    return image[:, :, 3].astype(np.float64) / 255.0, summary
 
 
 def _outline(alpha: np.ndarray) -> tuple[float, float, float]:
@@ -63,9 +65,10 @@ def _outline(alpha: np.ndarray) -> tuple[float, float, float]:
     [("tessellation", "high"), ("mesh", "medium")],
 )
 def test_a_ball_cut_by_a_box_shows_the_exact_chord(tmp_path, path, quality):
-    alpha = _press_render(
+    alpha, summary = _press_render(
         tmp_path, "--displace", quality=quality, env={"DENTDEMO_DISPLACEMENT": path}
     )
+    assert summary["displacement"] == path
     scale, height, flat = _outline(alpha)
     edges = np.concatenate([alpha[0], alpha[-1], alpha[:, 0], alpha[:, -1]])
     assert edges.max() == 0.0 and 2 * R * scale > 0.8 * 720  # whole, and large, in frame
@@ -73,8 +76,20 @@ def test_a_ball_cut_by_a_box_shows_the_exact_chord(tmp_path, path, quality):
     assert abs(flat - CHORD * scale) < 2.0  # pixels (441 here)
 
 
+def test_the_low_preset_moves_the_mesh_vertices(tmp_path):
+    """No cuts at low (no tessellation stages, whatever GL offers): the press mesh's own
+    vertices (1.6 mm apart here, 11 px) move, and the outline is cut all the same, though the
+    quarter-size shading stretched to 1280x720 blurs its corners."""
+    alpha, summary = _press_render(tmp_path, quality="low")
+    assert summary["displacement"] == "mesh"
+    scale, height, _ = _outline(alpha)
+    assert abs(height - (2 * R - D) * scale) < 1.5
+
+
 def test_without_displacement_the_outline_stays_round(tmp_path):
-    scale, height, flat = _outline(_press_render(tmp_path, "--no-displace"))
+    alpha, summary = _press_render(tmp_path, "--no-displace")
+    assert summary["displacement"] is None
+    scale, height, flat = _outline(alpha)
     assert abs(height - 2 * R * scale) < 1.0
     # A circle's top lies within half a pixel of its highest point over 2 sqrt(R_px) pixels.
     assert flat < 3.0 * np.sqrt(R * scale) < CHORD * scale / 4

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from dentdemo import log
 from dentdemo.cli.args import add_quality, command, float_in, int_in, size_wxh
 from dentdemo.errors import DentdemoError
-from dentdemo.outputs import check_output_dir, check_output_file
+from dentdemo.outputs import check_output_dir, check_output_file, write_json
 
 if TYPE_CHECKING:
     from dentdemo.app.press import PressSetup
@@ -175,6 +175,7 @@ def run(args: argparse.Namespace) -> int:
         summary = write_outputs(gl, setup, out, depth, tool_depth, times)
         if render is not None:
             summary["render"] = _render(gl, setup, render, args)
+            write_json(out / "summary.json", summary)  # again, with what --render drew
     finally:
         gl.release()
     print(json.dumps(summary, indent=2))

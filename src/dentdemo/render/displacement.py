@@ -40,4 +40,7 @@ def describe(ctx: moderngl.Context) -> str:
         return f"{path} (forced by {ENV}={path}; {version})"
     if path == "mesh":
         return f"mesh, a finer render mesh ({version} has no tessellation)"
-    return f"tessellation ({version}); {ENV}=mesh forces the finer-mesh fallback"
+    return (
+        f"tessellation ({version}; the low preset moves the mesh's own vertices); "
+        f"{ENV}=mesh forces the finer-mesh fallback"
+    )

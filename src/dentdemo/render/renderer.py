@@ -93,10 +93,14 @@ class Renderer:
         context and DENTDEMO_DISPLACEMENT."""
         self.gl = gl
         ctx = gl.ctx
-        #: How deep dents move the surface: "tessellation" or "mesh".
-        self.displacement = displacement_path(ctx, displacement)
-        self.size = size
         self.quality = quality or preset(None, gl.software)
+        #: How deep dents move the surface: "tessellation" or "mesh" (a preset that cuts nothing,
+        #: max_segments 1, moves the drawn mesh's vertices: the tessellation stages would only
+        #: add their cost).
+        self.displacement = displacement_path(ctx, displacement)
+        if self.quality.max_segments == 1:
+            self.displacement = "mesh"
+        self.size = size
         samples = min(self.quality.msaa, ctx.max_samples)
         shadow_size = self.quality.shadow_size
         scale = self.quality.render_scale
