@@ -24,7 +24,11 @@ CHORD = 2.0 * np.sqrt(2.0 * R * D - D * D)  # m
 
 
 def _press_render(
-    tmp_path: Path, *flags: str, quality: str = "high", env: dict[str, str] | None = None
+    tmp_path: Path,
+    *flags: str,
+    quality: str = "high",
+    env: dict[str, str] | None = None,
+    depth: float = D,
 ) -> tuple[np.ndarray, dict]:
     """`indent` a 0.2 m box 12.5 mm into a 5 cm ball and `--render` it at 1280x720: the PNG's
     alpha in [0, 1], rows top-down, and the summary's "render"."""
@@ -32,7 +36,7 @@ def _press_render(
     png = tmp_path / "side.png"
     result = dentdemo(
         *("indent", "--tool", "box", "--tool-size", "0.2", "--target", "sphere"),
-        *("--target-size", R, "--depth", D, "--map-size", "1024", "--out", out),
+        *("--target-size", R, "--depth", depth, "--map-size", "1024", "--out", out),
         *("--render", png, "--quality", quality, *flags),
         env={**os.environ, **(env or {})},
     )
@@ -74,6 +78,44 @@ def test_a_ball_cut_by_a_box_shows_the_exact_chord(tmp_path, path, quality):
     assert edges.max() == 0.0 and 2 * R * scale > 0.8 * 720  # whole, and large, in frame
     assert abs(height - (2 * R - D) * scale) < 1.0  # pixels
     assert abs(flat - CHORD * scale) < 2.0  # pixels (441 here)
+
+
+@pytest.mark.parametrize("path, quality", [("tessellation", "high"), ("mesh", "medium")])
+def test_a_cut_across_the_chart_seams_has_no_crack(gl, path, quality):
+    """Pressed R/3, the cut reaches 48.2 degrees from the top, past the cube-sphere's chart seams
+    at 45: triangles on either side of a seam sample different charts of the map, and triangles
+    of different levels meet. Seen from above (orthographic), a crack would show the background
+    (the far side's inside is culled): every pixel whose centre is within the ball's radius, less
+    2.5 px (medium's stretch blurs the rim), is covered, at 640x640 with 0.06 m from the centre to
+    the top edge. Before seam twins (render/seams.py) 711 pixels along the seams were not."""
+    from dentdemo.app.press import make_setup, run_presses
+    from dentdemo.model.scene import LightSpec
+    from dentdemo.model.shapes import Box, Sphere
+    from dentdemo.render.camera import SideCamera
+    from dentdemo.render.frame import DrawItem, FrameDescription, RenderOptions
+    from dentdemo.render.quality import PRESETS
+    from dentdemo.render.renderer import Renderer
+    from dentdemo.render.side_view import LOOK
+
+    setup = make_setup(gl, Sphere(R), Box((0.2, 0.2, 0.2)), 1024, 64)
+    run_presses(gl, setup, R / 3, 0.0, 1)
+    target = setup.target
+    down = SideCamera(np.array([0.0, 1.0, 0.0]), np.zeros(3), np.array([0.0, 0.0, -1.0]), 0.06)
+    item = DrawItem(target.gpu_mesh, target.model, LOOK, target.maps)
+    options = RenderOptions(shadows=False)
+    description = FrameDescription([item], down, LightSpec(), options, None, background=(1, 1, 1))
+    renderer = Renderer(gl, (640, 640), PRESETS[quality], displacement=path)
+    try:
+        renderer.render(description)
+        alpha = gl.read_framebuffer(renderer.output, components=4)[:, :, 3]
+    finally:
+        renderer.release()
+        target.maps.release()
+        setup.tool.maps.release()
+    pixels = np.arange(640) + 0.5 - 320
+    radius = np.hypot(pixels[:, None], pixels[None, :]) / (640 / (2 * 0.06))  # m
+    inside = radius < R - 2.5 * 0.12 / 640
+    assert np.count_nonzero(alpha[inside] < 255) == 0
 
 
 def test_the_low_preset_moves_the_mesh_vertices(tmp_path):

@@ -3,8 +3,8 @@
 // segments of about u_segment_pixels where the height map holds a dent (or bump) at least
 // u_deep_pixels deep along it, and left whole elsewhere, so flat areas stay one triangle and
 // shallow dents stay in the normal map (and parallax). An edge's level depends on that edge alone
-// (its ends, taken in a fixed order, and samples along it), so the two triangles that share it
-// agree and no crack opens. Lengths are counted in pixels as if the edge faced the view, so
+// (its ends, taken in a fixed order of position, and samples along it in both charts where it is
+// a seam), so the two triangles that share it agree and no crack opens. Lengths are counted in pixels as if the edge faced the view, so
 // edges seen edge-on at a silhouette, where the outline is made, are cut as finely as any.
 // SHADOW 1: the shadow pass (position, normal and address only).
 #ifndef SHADOW
@@ -23,9 +23,11 @@ uniform float u_deep_pixels;      // shallower dents are not displaced, pixels
 in vec3 tc_position[];  // local metres
 in vec3 tc_normal[];
 in vec2 tc_uv[];
+in vec4 tc_twin_uv[];
 out vec3 te_position[];
 out vec3 te_normal[];
 out vec2 te_uv[];
+out vec4 te_twin_uv[];
 #if !SHADOW
 in vec4 tc_tangent[];
 in vec2 tc_texture_uv[];
@@ -45,13 +47,24 @@ float level(float metres, float depth, float scale) {
     return clamp(ceil(metres * scale / u_segment_pixels), 1.0, u_max_level);
 }
 
+// Whether local point p comes before q (a fixed order that both triangles of an edge share).
+bool before(vec3 p, vec3 q) {
+    return p.x < q.x || (p.x == q.x && (p.y < q.y || (p.y == q.y && p.z < q.z)));
+}
+
 // The level of the edge between corners i and j.
 float edge_level(int i, int j) {
-    bool swap = tc_uv[i].x > tc_uv[j].x || (tc_uv[i].x == tc_uv[j].x && tc_uv[i].y > tc_uv[j].y);
-    int a = swap ? j : i, b = swap ? i : j;
+    int a = before(tc_position[i], tc_position[j]) ? i : j, b = a == i ? j : i;
+    vec2 ta, tb;  // the ends' addresses across a seam (the same as theirs elsewhere)
+    if (!seam_edge(tc_uv[a], tc_twin_uv[a], tc_uv[b], tc_twin_uv[b], ta, tb)) {
+        ta = tc_uv[a];
+        tb = tc_uv[b];
+    }
     float depth = 0.0;
     for (int k = 0; k <= 4; ++k) {  // five samples: the ends, the quarters and the middle
-        depth = max(depth, abs(height_at(mix(tc_uv[a], tc_uv[b], float(k) * 0.25))));
+        float t = float(k) * 0.25;
+        depth = max(depth, abs(height_at(mix(tc_uv[a], tc_uv[b], t))));
+        depth = max(depth, abs(height_at(mix(ta, tb, t))));
     }
     float scale = max(pixels_per_metre(tc_position[a]), pixels_per_metre(tc_position[b]));
     float metres = length(mat3(u_model) * (tc_position[b] - tc_position[a]));
@@ -62,6 +75,7 @@ void main() {
     te_position[gl_InvocationID] = tc_position[gl_InvocationID];
     te_normal[gl_InvocationID] = tc_normal[gl_InvocationID];
     te_uv[gl_InvocationID] = tc_uv[gl_InvocationID];
+    te_twin_uv[gl_InvocationID] = tc_twin_uv[gl_InvocationID];
 #if !SHADOW
     te_tangent[gl_InvocationID] = tc_tangent[gl_InvocationID];
     te_texture_uv[gl_InvocationID] = tc_texture_uv[gl_InvocationID];

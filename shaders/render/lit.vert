@@ -12,6 +12,9 @@ in vec3 in_normal;
 in vec2 in_uv;
 in vec4 in_tangent;   // xyz along +u, w = handedness
 in vec2 in_texture_uv;  // where the mesh's own base-colour image is sampled
+#if DISPLACE
+in vec4 in_twin_uv;     // the vertex's addresses in other charts (render/seams.py)
+#endif
 
 #if DISPLACE == 2
 out vec3 tc_position;
@@ -19,6 +22,7 @@ out vec3 tc_normal;
 out vec2 tc_uv;
 out vec4 tc_tangent;
 out vec2 tc_texture_uv;
+out vec4 tc_twin_uv;
 
 void main() {
     tc_position = in_position;
@@ -26,13 +30,14 @@ void main() {
     tc_uv = in_uv;
     tc_tangent = in_tangent;
     tc_texture_uv = in_texture_uv;
+    tc_twin_uv = in_twin_uv;
 }
 #else
 #include "frame.glsl"
 #include "surface_vertex.glsl"
 #if DISPLACE
 #include "displace.glsl"
-#define HEIGHT height_at(in_uv)
+#define HEIGHT seam_height(in_uv, in_twin_uv)
 #else
 #define HEIGHT 0.0
 #endif

@@ -137,7 +137,7 @@ class Simulation:
         if isinstance(spec.shape, Plate):
             t = spec.shape.thickness
             side = primitives.box((spec.shape.side, t, spec.shape.side))
-            side.positions[:, 1] -= t / 2 + 2e-4  # just below the top face; no lid (a dent shows)
+            side.positions[:, 1] -= t / 2  # up to the top face, without a lid (a dent shows)
             side.indices = side.indices[side.normals[side.indices[:, 0], 1] < 0.5]
             under = GpuMesh(self.gl, side)
         texture = None

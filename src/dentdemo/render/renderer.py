@@ -22,6 +22,7 @@ from dentdemo.render.legend import legend_texture
 from dentdemo.render.looks import GROUND, surface_code
 from dentdemo.render.quality import Quality, preset
 from dentdemo.render.refine import cuts_for, refine
+from dentdemo.render.seams import seam_twins
 
 GROUND_SIDE = 12.0  # m
 #: Half the side of the square the sun's shadow map covers, around the camera target, m.
@@ -57,6 +58,15 @@ LIT_SAMPLERS = (
 FLAT, MESH, TESSELLATE = 0, 1, 2
 #: The tessellation stages of a displaced pass.
 TESSELLATION = ("render/displace.tesc", "render/displace.tese")
+
+
+@dataclass(frozen=True)
+class _Twins:
+    """A mesh's seam twins on the GPU (4 floats a vertex) and its displaced vertex arrays."""
+
+    buffer: moderngl.Buffer
+    #: By program (its GL name).
+    vaos: dict[int, moderngl.VertexArray]
 
 
 @dataclass(frozen=True)
@@ -138,6 +148,9 @@ class Renderer:
             weakref.WeakKeyDictionary()
         )
         self._edges: weakref.WeakKeyDictionary[GpuMesh, float] = weakref.WeakKeyDictionary()
+        #: Per mesh drawn displaced: its seam twins (render/seams.py) in a vertex buffer, and
+        #: vertex arrays with them, by program.
+        self._twins: weakref.WeakKeyDictionary[GpuMesh, _Twins] = weakref.WeakKeyDictionary()
         sky = program(
             cache, ctx, "util/fullscreen.vert", "render/sky.frag", defines={"AT_FAR_PLANE": 1}
         )
@@ -294,8 +307,8 @@ class Renderer:
         stays under LEVEL_PIXELS of `pixel_metres`, as triangles, cut finer (MESH) or as
         patches (TESSELLATE)."""
         mesh = _level(item, pixel_metres)
-        if mode == TESSELLATE:
-            return lambda prog: mesh.vao(prog).render(moderngl.PATCHES)
+        if mode == FLAT:
+            return mesh.drawer(None, "")
         if mode == MESH:
             scale = float(np.linalg.norm(item.model[:3, :3], ord=2))  # world m per local m
             q = self.quality
@@ -303,7 +316,25 @@ class Renderer:
                 self._edge(mesh) * scale, pixel_metres, q.segment_pixels, q.max_segments
             )
             mesh = self._cut(mesh, cuts)
-        return mesh.drawer(None, "")
+        primitive = moderngl.PATCHES if mode == TESSELLATE else moderngl.TRIANGLES
+        return lambda prog: self._displaced_vao(mesh, prog).render(primitive)
+
+    def _displaced_vao(self, mesh: GpuMesh, prog: moderngl.Program) -> moderngl.VertexArray:
+        """A vertex array of `mesh` for a displaced pass: the mesh's own attributes and its seam
+        twins (made once per mesh and program)."""
+        if mesh not in self._twins:
+            buffer = self.gl.ctx.buffer(seam_twins(mesh.mesh).tobytes())
+            self._twins[mesh] = _Twins(buffer, {})
+        twins = self._twins[mesh]
+        if prog.glo not in twins.vaos:
+            used = [n for n in GpuMesh._NAMES if n in prog]
+            layout = " ".join(
+                f if n in used else f"{f[0]}x4"
+                for f, n in zip(GpuMesh._LAYOUT.split(), GpuMesh._NAMES, strict=True)
+            )
+            content = [(mesh.vbo, layout, *used), (twins.buffer, "4f", "in_twin_uv")]
+            twins.vaos[prog.glo] = self.gl.ctx.vertex_array(prog, content, mesh.ibo)
+        return twins.vaos[prog.glo]
 
     def _edge(self, mesh: GpuMesh) -> float:
         """The 90th percentile of the mesh's edge lengths, local metres."""
@@ -571,6 +602,8 @@ class Renderer:
             self._linear,
         )
         self._ground.release()
+        for twins in self._twins.values():
+            release(*twins.vaos.values(), twins.buffer)
         for kept in self._refined.values():
             for mesh in kept.values():
                 mesh.release()
