@@ -5,7 +5,8 @@
 // mapping, procedural surface detail, ACES tone mapping and exact sRGB output. Debug views
 // replace the shading. Compile-time variants: PARALLAX 0/1; VIEW 0 shaded / 1 height / 2 normal;
 // SHADOW_TAPS 1 or 4 and SURFACE_DETAIL 0/1 (the quality preset); TEXTURED 0/1 (the mesh's own
-// base-colour image); GROUND 0/1 (the checkered ground: flat, facing +Y, without maps). They are
+// base-colour image); GROUND 0/1 (the checkered ground: flat, facing +Y, without maps); DISPLACE
+// 0/1/2 (the surface was moved by the height map: parallax marches only what is left). They are
 // compile-time because a software rasteriser runs both sides of a branch on a uniform.
 #ifndef PARALLAX
 #define PARALLAX 0
@@ -24,6 +25,9 @@
 #endif
 #ifndef GROUND
 #define GROUND 0
+#endif
+#ifndef DISPLACE
+#define DISPLACE 0
 #endif
 #include "frame.glsl"
 #include "../include/common.glsl"
@@ -56,11 +60,21 @@ in vec3 v_tangent;
 in vec3 v_bitangent;
 in vec4 v_light_clip;
 in vec2 v_texture_uv;
+#if DISPLACE
+in float v_displaced_depth;  // metres the vertices moved inwards, interpolated
+#define DISPLACED_DEPTH v_displaced_depth
+#else
+#define DISPLACED_DEPTH 0.0
+#endif
 
 out vec4 f_colour;
 
 // Height below the mesh surface in metres at uv (positive = deeper).
 float depth_at(vec2 uv) { return -texture(u_height_map, uv).r; }
+
+// Depth of the height field below the drawn surface at uv, metres (the drawn surface is the mesh,
+// or the mesh moved by DISPLACED_DEPTH where it was displaced).
+float relief_at(vec2 uv) { return depth_at(uv) - DISPLACED_DEPTH; }
 
 // March the view ray (tangent space, metres) into the height field; return the uv it meets.
 vec2 parallax_uv(vec2 uv, vec3 view_ts) {
@@ -70,15 +84,15 @@ vec2 parallax_uv(vec2 uv, vec3 view_ts) {
     vec2 step_uv = -view_ts.xy / view_ts.z * layer * u_uv_per_metre;
     float ray = 0.0;
     vec2 cur = uv;
-    float surf = depth_at(cur);
+    float surf = relief_at(cur);
     for (int i = 0; i < STEPS && ray < surf; ++i) {
         cur += step_uv;
         ray += layer;
-        surf = depth_at(cur);
+        surf = relief_at(cur);
     }
     vec2 prev = cur - step_uv;
     float after = surf - ray;
-    float before = depth_at(prev) - (ray - layer);
+    float before = relief_at(prev) - (ray - layer);
     float t = after / max(after - before, 1e-9);
     return mix(cur, prev, clamp(t, 0.0, 1.0));
 }

@@ -1,32 +1,46 @@
 #version 330 core
 // Scene bodies: world position, texture address and tangent frame for normal mapping.
-#include "frame.glsl"
-
-uniform mat4 u_model;          // world from local
-uniform mat3 u_normal_matrix;  // world from local, for normals
+// DISPLACE 0: the mesh as it is; 1: each vertex moved along its normal by the height map (the
+// finer fallback mesh); 2: the mesh handed to the tessellation stages (displace.tesc, .tese),
+// which cut it where dents are deep and move the new vertices.
+#ifndef DISPLACE
+#define DISPLACE 0
+#endif
 
 in vec3 in_position;  // local metres
 in vec3 in_normal;
 in vec2 in_uv;
 in vec4 in_tangent;   // xyz along +u, w = handedness
 in vec2 in_texture_uv;  // where the mesh's own base-colour image is sampled
+#if DISPLACE
+in vec4 in_twin_uv;     // the vertex's addresses in other charts (render/seams.py)
+#endif
 
-out vec3 v_world;
-out vec2 v_uv;
-out vec3 v_normal;
-out vec3 v_tangent;
-out vec3 v_bitangent;
-out vec4 v_light_clip;
-out vec2 v_texture_uv;
+#if DISPLACE == 2
+out vec3 tc_position;
+out vec3 tc_normal;
+out vec2 tc_uv;
+out vec4 tc_tangent;
+out vec2 tc_texture_uv;
+out vec4 tc_twin_uv;
 
 void main() {
-    vec4 world = u_model * vec4(in_position, 1.0);
-    v_world = world.xyz;
-    v_uv = in_uv;
-    v_normal = normalize(u_normal_matrix * in_normal);
-    v_tangent = normalize(mat3(u_model) * in_tangent.xyz);
-    v_bitangent = cross(v_normal, v_tangent) * in_tangent.w;
-    v_light_clip = u_light_view_proj * world;
-    v_texture_uv = in_texture_uv;
-    gl_Position = u_view_proj * world;
+    tc_position = in_position;
+    tc_normal = in_normal;
+    tc_uv = in_uv;
+    tc_tangent = in_tangent;
+    tc_texture_uv = in_texture_uv;
+    tc_twin_uv = in_twin_uv;
 }
+#else
+#include "frame.glsl"
+#include "surface_vertex.glsl"
+#if DISPLACE
+#include "displace.glsl"
+#define HEIGHT seam_height(in_uv, in_twin_uv)
+#else
+#define HEIGHT 0.0
+#endif
+
+void main() { emit_surface(in_position, in_normal, in_uv, in_tangent, in_texture_uv, HEIGHT); }
+#endif

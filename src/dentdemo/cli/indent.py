@@ -6,11 +6,16 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from dentdemo import log
-from dentdemo.cli.args import command, float_in, int_in
+from dentdemo.cli.args import add_quality, command, float_in, int_in, size_wxh
 from dentdemo.errors import DentdemoError
-from dentdemo.outputs import check_output_dir
+from dentdemo.outputs import check_output_dir, check_output_file, write_json
+
+if TYPE_CHECKING:
+    from dentdemo.app.press import PressSetup
+    from dentdemo.gl.context import GLContext
 
 MAP_SIDES = int_in(16, 8192)
 
@@ -88,6 +93,30 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="deepest dent a map holds, m",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument(
+        "--render",
+        metavar="PNG",
+        help="also draw the dented target seen from the side (across the press), whole, on a "
+        "plain background (alpha 0), orthographic",
+    )
+    shown = p.add_mutually_exclusive_group()
+    shown.add_argument(
+        "--displace",
+        dest="displace",
+        action="store_true",
+        default=None,
+        help="--render moves the surface by its dents, so they show in the outline (default)",
+    )
+    shown.add_argument(
+        "--no-displace",
+        dest="displace",
+        action="store_false",
+        help="--render draws the dents in the maps only: the outline is the undented mesh's",
+    )
+    p.add_argument(
+        "--render-size", type=size_wxh, default="1280x720", metavar="WxH", help="--render pixels"
+    )
+    add_quality(p)
     p.set_defaults(handler=run)
 
 
@@ -123,8 +152,12 @@ def run(args: argparse.Namespace) -> int:
         if args.tool_pattern
         else None
     )
+    if args.render is None and args.displace is not None:
+        flag = "--displace" if args.displace else "--no-displace"
+        raise DentdemoError(f"{flag}: only with --render PNG")
     out = Path(args.out)
     check_output_dir("--out", out)
+    render = check_output_file("--render", Path(args.render)) if args.render else None
     gl = create_headless()
     try:
         setup = make_setup(
@@ -140,7 +173,36 @@ def run(args: argparse.Namespace) -> int:
         )
         times = run_presses(gl, setup, depth, tool_depth, args.repeat)
         summary = write_outputs(gl, setup, out, depth, tool_depth, times)
+        if render is not None:
+            summary["render"] = _render(gl, setup, render, args)
+            write_json(out / "summary.json", summary)  # again, with what --render drew
     finally:
         gl.release()
     print(json.dumps(summary, indent=2))
     return 0
+
+
+def _render(gl: GLContext, setup: PressSetup, path: Path, args: argparse.Namespace) -> dict:
+    """`--render`: the target after the press, across the press direction; what was drawn."""
+    from dentdemo.outputs import write_png
+    from dentdemo.render.quality import preset
+    from dentdemo.render.side_view import render_side_view
+
+    target = setup.target
+    view = render_side_view(
+        gl,
+        target.gpu_mesh,
+        target.maps,
+        target.model,
+        setup.contact.direction,
+        args.render_size,
+        preset(args.quality, gl.software),
+        args.displace is not False,
+    )
+    write_png(path, view.pixels)
+    return {
+        "png": str(path),
+        "size": list(args.render_size),
+        "metres_per_pixel": view.metres_per_pixel,
+        "displacement": view.displacement,
+    }

@@ -20,6 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from dentdemo.gl.context import create_headless
+    from dentdemo.render.displacement import describe
     from dentdemo.render.quality import preset
 
     gl = create_headless(args.backend)
@@ -29,6 +30,7 @@ def run(args: argparse.Namespace) -> int:
     quality = preset(None, gl.software)
     why = "software rasteriser" if gl.software else "GPU"
     print(f"Quality:     {quality.name} by default ({why}); --quality low|medium|high")
+    print(f"Displacement: {describe(gl.ctx)}")
     gl.release()
     from dentdemo.physics.ode import ode_configuration
 

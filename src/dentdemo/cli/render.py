@@ -44,6 +44,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-dents", action="store_true", help="detect impacts but carve nothing")
     p.add_argument("--parallax", action="store_true", help="parallax occlusion mapping")
     p.add_argument(
+        "--no-displace",
+        action="store_true",
+        help="draw deep dents in the maps only, not in the outline (see 'dentdemo info')",
+    )
+    p.add_argument(
         "--view", type=int, choices=(0, 1, 2), default=0, help="0 shaded, 1 height, 2 normals"
     )
     p.add_argument(
@@ -138,7 +143,9 @@ def run(args: argparse.Namespace) -> int:
         args.size,
         maps_dir,
         denting=not args.no_dents,
-        options=RenderOptions(parallax=args.parallax, view=args.view),
+        options=RenderOptions(
+            parallax=args.parallax, view=args.view, displace=not args.no_displace
+        ),
         every_frame=every,
         load_state=Path(args.load_state) if args.load_state else None,
         save_state=save_state,

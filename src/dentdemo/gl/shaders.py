@@ -120,19 +120,28 @@ class ShaderLibrary:
         geometry: str | None = None,
         *,
         defines: dict[str, object] | None = None,
+        tessellation: tuple[str, str] | None = None,
     ) -> moderngl.Program:
-        """Compile and link a program from shader files; errors name file and line."""
-        sources = {"vertex_shader": self.expand(vertex, defines)}
-        if fragment:
-            sources["fragment_shader"] = self.expand(fragment, defines)
-        if geometry:
-            sources["geometry_shader"] = self.expand(geometry, defines)
+        """Compile and link a program from shader files; errors name file and line.
+        `tessellation` is (control, evaluation) shader files (GL 4.0)."""
+        stages = {
+            "vertex_shader": vertex,
+            "fragment_shader": fragment,
+            "geometry_shader": geometry,
+            "tess_control_shader": tessellation[0] if tessellation else None,
+            "tess_evaluation_shader": tessellation[1] if tessellation else None,
+        }
+        sources = {
+            stage: self.expand(name, defines) for stage, name in stages.items() if name is not None
+        }
+        text = {stage: source.text for stage, source in sources.items()}
         try:
-            geometry_source = sources.get("geometry_shader")
             prog = ctx.program(
-                vertex_shader=sources["vertex_shader"].text,
-                fragment_shader=sources["fragment_shader"].text if fragment else None,
-                geometry_shader=geometry_source.text if geometry_source else None,
+                vertex_shader=text["vertex_shader"],
+                fragment_shader=text.get("fragment_shader"),
+                geometry_shader=text.get("geometry_shader"),
+                tess_control_shader=text.get("tess_control_shader"),
+                tess_evaluation_shader=text.get("tess_evaluation_shader"),
             )
         except moderngl.Error as exc:
             raise ShaderError(self._explain(str(exc), sources)) from None
@@ -171,13 +180,16 @@ def program(
     vertex: str,
     *stages: str | None,
     defines: dict[str, object] | None = None,
+    tessellation: tuple[str, str] | None = None,
 ) -> moderngl.Program:
     """A cached program per context and defines: `program(gl.cache, gl.ctx, "a.vert", "a.frag")`
-    (then the geometry shader, if any)."""
-    names = "|".join([vertex, *(n or "" for n in stages)])
+    (then the geometry shader, if any; `tessellation`: the control and evaluation shaders)."""
+    names = "|".join([vertex, *(n or "" for n in stages), *(tessellation or ())])
     key = f"program:{names}|{sorted((defines or {}).items())!r}"
     if key not in gl_cache:
-        gl_cache[key] = ShaderLibrary().program(ctx, vertex, *stages, defines=defines)
+        gl_cache[key] = ShaderLibrary().program(
+            ctx, vertex, *stages, defines=defines, tessellation=tessellation
+        )
     return gl_cache[key]
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import pyrr
@@ -38,6 +39,26 @@ def orthographic(half_width: float, half_height: float, near: float, far: float)
         ),
         dtype=np.float64,
     ).T
+
+
+class Camera(Protocol):
+    """What the renderer asks of a camera (world metres)."""
+
+    @property
+    def eye(self) -> NDArray[np.float64]: ...
+
+    @property
+    def target(self) -> NDArray[np.float64]: ...
+
+    def view_proj(self, aspect: float) -> Mat4: ...
+
+    def pixels_per_metre(self, rows: int) -> float:
+        """Pixels per metre across the view at clip w = 1, for an image `rows` pixels high."""
+        ...
+
+    def metres_per_pixel(self, distance: float, rows: int) -> float:
+        """A pixel's width, metres, at `distance` metres from the eye."""
+        ...
 
 
 @dataclass
@@ -78,6 +99,13 @@ class OrbitCamera:
     def view_proj(self, aspect: float) -> Mat4:
         return self.projection(aspect) @ self.view()
 
+    def pixels_per_metre(self, rows: int) -> float:
+        """At clip w = 1, i.e. one metre ahead of the eye (w is the distance along the view)."""
+        return rows / (2.0 * np.tan(np.radians(self.fov_deg) / 2))
+
+    def metres_per_pixel(self, distance: float, rows: int) -> float:
+        return 2.0 * np.tan(np.radians(self.fov_deg) / 2) / rows * distance
+
     def orbit(self, d_yaw: float, d_pitch: float) -> None:
         self.yaw += d_yaw
         self.pitch = float(np.clip(self.pitch + d_pitch, -1.45, 1.45))
@@ -105,3 +133,27 @@ class OrbitCamera:
         clip = np.hstack([p, np.ones((len(p), 1))]) @ self.view_proj(aspect).T
         ndc = clip[:, :3] / clip[:, 3:4]
         return np.stack([(ndc[:, 0] + 1) / 2 * size[0], (1 - ndc[:, 1]) / 2 * size[1]], axis=1)
+
+
+@dataclass
+class SideCamera:
+    """An orthographic view of `target` from `eye` with `up` pointing up and `half_height`
+    metres from the centre of the image to its top edge (so sizes can be measured in pixels)."""
+
+    eye: NDArray[np.float64]
+    target: NDArray[np.float64]
+    up: NDArray[np.float64]
+    half_height: float
+
+    def view_proj(self, aspect: float) -> Mat4:
+        reach = float(np.linalg.norm(self.target - self.eye))
+        near, far = max(reach - 4.0 * self.half_height, NEAR), reach + 4.0 * self.half_height
+        projection = orthographic(self.half_height * aspect, self.half_height, near, far)
+        return projection @ look_at(self.eye, self.target, self.up)
+
+    def pixels_per_metre(self, rows: int) -> float:
+        """Everywhere (clip w is 1 in an orthographic view)."""
+        return rows / (2.0 * self.half_height)
+
+    def metres_per_pixel(self, distance: float, rows: int) -> float:
+        return 2.0 * self.half_height / rows

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.model.materials import Appearance
 from dentdemo.model.scene import LightSpec
-from dentdemo.render.camera import OrbitCamera
+from dentdemo.render.camera import Camera
 
 
 @dataclass
@@ -28,6 +28,8 @@ class RenderOptions:
     shadows: bool = True
     #: The height view's full-scale dent depth (the legend's top), metres.
     legend_depth: float = 0.005
+    #: Move surfaces by their height maps where dents are deep (render/displacement.py).
+    displace: bool = True
 
 
 @dataclass(frozen=True)
@@ -66,7 +68,7 @@ class Inset:
 @dataclass(frozen=True)
 class FrameDescription:
     items: list[DrawItem]
-    camera: OrbitCamera
+    camera: Camera
     light: LightSpec
     options: RenderOptions
     #: Height of the checkered ground plane, world y metres (None: no ground).
@@ -74,3 +76,5 @@ class FrameDescription:
     #: Debug lines, (n, 6) float32 rows: position (world m), colour (linear RGB); pairs.
     lines: NDArray[np.float32] = field(default_factory=lambda: np.zeros((0, 6), np.float32))
     inset: Inset | None = None
+    #: A plain background instead of the sky: sRGB in [0, 1], written with alpha 0 (None: sky).
+    background: tuple[float, float, float] | None = None
