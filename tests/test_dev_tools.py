@@ -174,10 +174,13 @@ def test_the_world_holds_nothing_only_drawn_and_scenery_follows_it(app):
     assert set(parts) == set(app.sim.bodies)
     sides = parts["plate"].under
     assert sides is not None and parts["ball"].under is None and parts["ball"].coarser
-    # The sides span the plate's 0.4 m and reach 0.02 m below its top face (body space).
+    # The sides span the plate's 0.4 m, from its top face (no lid) to 0.02 m below (body space).
     box = sides.mesh.positions
     np.testing.assert_allclose(box.max(axis=0)[[0, 2]], [0.2, 0.2], atol=1e-9)
-    assert box[:, 1].min() == pytest.approx(-0.02 - 2e-4, abs=1e-9)
+    assert box[:, 1].min() == pytest.approx(-0.02, abs=1e-7)
+    assert box[:, 1].max() == pytest.approx(0.0, abs=1e-7)
+    faces_up = sides.mesh.normals[sides.mesh.indices[:, 0], 1] > 0.5
+    assert not faces_up.any()  # the top face is the dentable plate's own
     app.reset()
     app.render()
     assert app.scenery.parts["plate"].under is sides  # the same shape: kept
