@@ -68,7 +68,8 @@ def _outline(alpha: np.ndarray) -> tuple[float, float, float]:
     # The fallback at medium: at high it draws 1.8 million triangles here, 6 s on llvmpipe.
     [("tessellation", "high"), ("mesh", "medium")],
 )
-def test_a_ball_cut_by_a_box_shows_the_exact_chord(tmp_path, path, quality):
+def test_a_ball_cut_by_a_box_shows_the_exact_chord(gl, tmp_path, path, quality):
+    _need(gl, path)
     alpha, summary = _press_render(
         tmp_path, "--displace", quality=quality, env={"DENTDEMO_DISPLACEMENT": path}
     )
@@ -80,6 +81,12 @@ def test_a_ball_cut_by_a_box_shows_the_exact_chord(tmp_path, path, quality):
     assert abs(flat - CHORD * scale) < 2.0  # pixels (441 here)
 
 
+def _need(gl, path: str) -> None:
+    """Tessellation needs GL 4.0: a driver that gives only 3.3 (none here) has the fallback."""
+    if path == "tessellation" and gl.ctx.version_code < 400:
+        pytest.skip(f"GL 4.0 tessellation is absent: this context is {gl.ctx.version_code}")
+
+
 @pytest.mark.parametrize("path, quality", [("tessellation", "high"), ("mesh", "medium")])
 def test_a_cut_across_the_chart_seams_has_no_crack(gl, path, quality):
     """Pressed R/3, the cut reaches 48.2 degrees from the top, past the cube-sphere's chart seams
@@ -88,6 +95,7 @@ def test_a_cut_across_the_chart_seams_has_no_crack(gl, path, quality):
     (the far side's inside is culled): every pixel whose centre is within the ball's radius, less
     2.5 px (medium's stretch blurs the rim), is covered, at 640x640 with 0.06 m from the centre to
     the top edge. Before seam twins (render/seams.py) 711 pixels along the seams were not."""
+    _need(gl, path)
     from dentdemo.app.press import make_setup, run_presses
     from dentdemo.model.scene import LightSpec
     from dentdemo.model.shapes import Box, Sphere
