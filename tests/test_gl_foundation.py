@@ -225,3 +225,18 @@ def test_a_uniform_no_shader_declares_raises_in_strict_mode(gl, monkeypatch):
     monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "0")
     normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
     release(fbo, target)
+
+
+def test_a_uniform_set_again_to_its_value_is_skipped_and_a_new_value_is_not(gl):
+    from dentdemo.carve.texel_passes import texture_space_passes
+    from dentdemo.gl.shaders import set_uniform
+
+    prog = texture_space_passes(gl)["normals", 1, False].program
+    writes = []
+    member = prog["u_map_size"]
+    for value in [(8, 8), (8, 8), (16, 4), (16, 4), (8, 8)]:
+        before = prog.extra.last.get("u_map_size")
+        set_uniform(prog, "u_map_size", value)
+        writes.append(before != value)
+        assert tuple(member.value) == value  # what GL holds, read back
+    assert writes == [True, False, True, False, True]

@@ -208,9 +208,16 @@ def uniform_names(source: str) -> list[str]:
 
 @dataclass(frozen=True)
 class _Declared:
-    """Which files a program was made of (kept on the program as `extra`, for messages)."""
+    """Which files a program was made of (kept on the program as `extra`, for messages), and
+    the value set last for each uniform (dentdemo's programs are its own: nothing else sets
+    them, so a value set again needs no GL call)."""
 
     files: str
+    last: dict[str, object] = field(default_factory=dict)
+
+
+#: Values compared with the last one set (others, such as numpy arrays, are always set).
+_COMPARABLE = (bool, int, float, tuple, bytes)
 
 
 @functools.cache
@@ -240,10 +247,14 @@ def set_uniform(
     `selectors` are keys that pick a pass's variant rather than name a uniform. Under
     `strict_uniforms()` a name that no shader file declares at all (a misspelling, a uniform
     renamed in a shader but not in Python) raises ShaderError."""
+    declared = prog.extra if isinstance(prog.extra, _Declared) else None
+    comparable = isinstance(value, _COMPARABLE)
+    if declared is not None and comparable and declared.last.get(name, _UNSET) == value:
+        return  # already so: a batch's draws share most of their uniforms
     member = prog.get(name, None)  # a dict look-up; `name in prog` walks every member
     if member is None:
         if strict_uniforms() and name not in selectors and name not in library_uniforms():
-            files = prog.extra.files if isinstance(prog.extra, _Declared) else "a program"
+            files = declared.files if declared is not None else "a program"
             raise ShaderError(f"{files}: no shader declares a uniform named '{name}'")
         return
     if not isinstance(member, moderngl.Uniform):
@@ -252,3 +263,11 @@ def set_uniform(
         member.write(value)  # matrices, column-major float32
     else:
         member.value = value
+    if declared is not None:
+        if comparable:
+            declared.last[name] = value
+        else:
+            declared.last.pop(name, None)
+
+
+_UNSET = object()
