@@ -61,6 +61,20 @@ def test_a_ball_pressed_by_a_ball_ends_on_its_sphere():
     assert np.allclose(distance, r, atol=1e-9)
 
 
+def test_a_loaded_mesh_is_ray_cast_only_where_a_press_reaches():
+    """A mesh without a closed form (a sphere's, its bound taken away) is ray cast for the
+    points a press moves, not all of them when its proxy is made; those are 2 R thick."""
+    mesh = primitives.sphere(R, subdivisions=16)
+    mesh.bound = None
+    proxy = DentProxy.of(mesh)
+    assert np.isnan(proxy.thickness).all()
+    proxy.press(np.eye(4), ground_field(-R), np.array([0.0, 1.0, 0.0]), 3 * R, 1.0)
+    pressed = proxy.inward > 0
+    assert np.array_equal(~np.isnan(proxy.thickness), pressed)
+    assert np.allclose(proxy.thickness[pressed], 2 * R, rtol=1e-4)
+    assert proxy.inward.max() == pytest.approx(2 * R, rel=1e-4)
+
+
 def test_a_press_never_goes_through_the_body():
     proxy = DentProxy.of(primitives.sphere(R, subdivisions=16))
     proxy.press(np.eye(4), ground_field(-R), np.array([0.0, 1.0, 0.0]), 3 * R, 1.0)

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
-from dentdemo.mesh.thickness import vertex_thickness
+from dentdemo.mesh.thickness import closed_thickness, vertex_thickness
 
 #: A body's collision shape is rebuilt once its deepest dent passes this share of its size (the
 #: radius of its bounding sphere about its local origin), and again each time it deepens by this
@@ -149,7 +149,9 @@ class DentProxy:
 
     points: NDArray[np.float64]  # (n, 3) body-local metres: the body's mesh's vertices
     normals: NDArray[np.float64]  # (n, 3) unit, outward
-    thickness: NDArray[np.float64]  # (n,) metres (mesh/thickness.py)
+    #: (n,) metres (mesh/thickness.py); NaN where not yet known: ray cast from `source` for
+    #: the points a press reaches (a loaded mesh has no closed form).
+    thickness: NDArray[np.float64]
     triangles: NDArray[np.int64]  # (m, 3) the mesh's, wound outwards
     size: float  # bounding radius about the local origin, metres
     inward: NDArray[np.float64] = field(init=False)
@@ -157,6 +159,8 @@ class DentProxy:
     shaped: NDArray[np.float64] = field(init=False)
     #: The deepest point's depth when the geom was last rebuilt (0: never), metres.
     rebuilt_at: float = 0.0
+    #: The mesh whose vertices `points` are, where `thickness` is still to be ray cast.
+    source: Mesh | None = None
 
     def __post_init__(self) -> None:
         self.inward = np.zeros(len(self.points))
@@ -166,12 +170,15 @@ class DentProxy:
     def of(cls, mesh: Mesh) -> DentProxy:
         normals = mesh.normals.astype(np.float64)
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+        closed = closed_thickness(mesh)
+        unknown = np.full(len(mesh.positions), np.nan)
         return cls(
             mesh.positions.astype(np.float64),
             normals,
-            vertex_thickness(mesh).astype(np.float64),
+            unknown if closed is None else closed.astype(np.float64),
             mesh.indices.astype(np.int64),
             mesh.bounding_radius,
+            source=None if closed is not None else mesh,
         )
 
     @property
@@ -199,18 +206,21 @@ class DentProxy:
         def inside(a: NDArray[np.float64], k: NDArray[np.int64]) -> NDArray[np.bool_]:
             return tool(world[k] - a[:, None] * normal[k] - shift) < 0.0
 
-        bound = np.minimum(max_depth, self.thickness)
         k = np.nonzero(inside(self.inward, np.arange(len(self.points))))[0]
         if len(k) == 0:
             return
-        lo, hi = self.inward[k].copy(), bound[k].copy()
+        unknown = k[np.isnan(self.thickness[k])]
+        if len(unknown) and self.source is not None:
+            self.thickness[unknown] = vertex_thickness(self.source, unknown)
+        bound = np.minimum(max_depth, self.thickness[k])
+        lo, hi = self.inward[k].copy(), bound.copy()
         still = inside(hi, k)  # past the bound and still inside: the bound
         for _ in range(_STEPS):
             mid = 0.5 * (lo + hi)
             deeper = inside(mid, k)
             lo = np.where(deeper, mid, lo)
             hi = np.where(deeper, hi, mid)
-        self.inward[k] = np.maximum(self.inward[k], np.where(still, bound[k], hi))
+        self.inward[k] = np.maximum(self.inward[k], np.where(still, bound, hi))
 
     def due(self) -> bool:
         """Whether the geom should be rebuilt now (see RESHAPE_FRACTION)."""

@@ -146,7 +146,7 @@ class GpuMesh:
             )
             ibo = self._subsets[subset].buffer if subset else self.ibo
             buffers = [(self.vbo, fmt, *used)]
-            if "in_thickness" in prog:  # the gather's bound (made on first use: a ray cast)
+            if "in_thickness" in prog:  # the gather's bound (see ensure_thickness)
                 buffers.append((self.thickness_vbo, "1f", "in_thickness"))
             self._vaos[key] = self._ctx.vertex_array(prog, buffers, ibo)
         return self._vaos[key]
