@@ -9,6 +9,7 @@ rolls on (without rolling resistance, at 5/7 of the push's speed: 0.29 m in 2 s)
 
 from __future__ import annotations
 
+import ctypes
 import math
 
 import numpy as np
@@ -225,12 +226,15 @@ def test_undo_and_repair_give_the_collision_shape_back(gl, tmp_path, how):
             sim.step()
             assert sim.stats.frames < 200
         assert ode.dGeomGetClass(sim.world.bodies["ball"].geom) == ode.dTriMeshClass
+        plate = ctypes.cast(sim.world.bodies["plate"].geom, ctypes.c_void_p).value
         if how == "undo":
             assert sim.undo()  # the batch that dented it deep enough
         else:
             sim.repair("ball")
         assert "ball" not in sim.proxies
         assert ode.dGeomGetClass(sim.world.bodies["ball"].geom) == ode.dSphereClass
+        # The static plate of the same hits had no dented shape to give back: its geom stays.
+        assert ctypes.cast(sim.world.bodies["plate"].geom, ctypes.c_void_p).value == plate
         for _ in range(30):  # and the world steps on with it
             sim.step()
     finally:

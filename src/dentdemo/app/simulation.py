@@ -260,18 +260,16 @@ class Simulation:
             self.carver.carve_many([press for _, press in presses])
             self.carved_points.extend(request.impact.point for request, _ in presses)
             self.last_hit = presses[-1][0]
+            before: dict[str, tuple | None] = {}  # the proxies as they were, for undo
             for request, _ in presses:
-                for body, depth in (
+                for body_id, depth in (
                     (request.impact.body_a, request.depth_a),
                     (request.impact.body_b, request.depth_b),
                 ):
                     if depth > 0.0:
-                        stats = self.dents.setdefault(body, DentStats())
+                        stats = self.dents.setdefault(body_id, DentStats())
                         stats.count += 1
                         stats.deepest = max(stats.deepest, depth)
-            before: dict[str, tuple | None] = {}
-            for request, _ in presses:
-                for body_id in (request.impact.body_a, request.impact.body_b):
                     if body_id not in before:
                         p = self.proxies.get(body_id)
                         before[body_id] = (
@@ -387,9 +385,10 @@ class Simulation:
         for body_id, saved in before.items():
             if body_id not in self.bodies:
                 continue
-            if saved is None:  # the batch made it: the body had no dents to follow before
-                self.proxies.pop(body_id, None)
-                self.world.reset_shape(body_id)
+            if saved is None:  # no proxy before the batch: drop one it made, and its shape
+                made = self.proxies.pop(body_id, None)
+                if made is not None and made.rebuilt_at > 0.0:
+                    self.world.reset_shape(body_id)
                 continue
             proxy = self.proxies[body_id]
             reshaped = proxy.rebuilt_at != saved[2]
