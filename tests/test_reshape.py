@@ -97,7 +97,7 @@ def _push(tmp_path, flat: float) -> tuple[float, float, float, float]:
     world = build_world(load_scene(tmp_path / "s.toml", load_materials([tmp_path / "m.toml"])))
     try:
         if flat:
-            world.set_hull("ball", *_flattened(flat).rebuilt())
+            world.set_surface("ball", *_flattened(flat).rebuilt())
             geom = world.bodies["ball"].geom
             assert ode.dGeomGetClass(geom) == ode.dTriMeshClass
         for _ in range(30):

@@ -7,7 +7,7 @@ the solid the tool sweeps, never deeper than the material's bound or the body's 
 tool's solid is known in closed form as a signed distance (a sphere, capsule, box, plate or the
 ground); a loaded mesh as a tool leaves the proxy alone. Once the deepest point has moved more
 than RESHAPE_FRACTION of the body's size, the body's ODE geom becomes its mesh with the moved
-points (physics/world.py `set_hull`): a ball flattened by a plate rests on its flat.
+points (physics/world.py `set_surface`): a ball flattened by a plate rests on its flat.
 
 A trimesh of the dented surface, not its convex hull: the hull needs qhull (scipy, a dependency
 of 40 MB for this alone), fills the pits a small ball leaves, and gained nothing in the tests

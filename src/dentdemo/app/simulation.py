@@ -284,7 +284,7 @@ class Simulation:
 
     def _follow_dents(self, request: CarveRequest) -> None:
         """Press the dynamic bodies' collision proxies as the carve pressed their maps, and give
-        a body whose dents grew deep enough the hull of its dented surface (app/reshape.py)."""
+        a body whose dents grew deep enough its dented surface as its shape (app/reshape.py)."""
         impact = request.impact
         sides = (
             (
@@ -317,7 +317,7 @@ class Simulation:
                 self.proxies[body_id] = proxy
             proxy.press(model, field, direction, depth, body.spec.material.max_dent_depth)
             if proxy.due():
-                self.world.set_hull(body_id, *proxy.rebuilt())
+                self.world.set_surface(body_id, *proxy.rebuilt())
 
     def advance(self, seconds: float, max_steps: int = 4) -> int:
         """Steps owed for `seconds` of wall time times the time scale (window use)."""
@@ -395,7 +395,7 @@ class Simulation:
             proxy.inward, proxy.shaped, proxy.rebuilt_at = saved
             if reshaped:
                 if proxy.rebuilt_at > 0.0:
-                    self.world.set_hull(body_id, *proxy.surface())
+                    self.world.set_surface(body_id, *proxy.surface())
                 else:
                     self.world.reset_shape(body_id)
         return True

@@ -649,7 +649,7 @@ def apply_state(sim: Simulation, state: SavedState) -> None:
         proxy.inward[points], proxy.shaped[points] = inward, shaped
         proxy.rebuilt_at = rebuilt_at
         if rebuilt_at > 0.0:
-            sim.world.set_hull(body_id, *proxy.surface())
+            sim.world.set_surface(body_id, *proxy.surface())
     sim.queue = deque(state.queue)
     sim.carved_points.clear()
     sim.carved_points.extend(state.carved_points)

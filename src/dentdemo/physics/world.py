@@ -259,9 +259,8 @@ class PhysicsWorld:
 
     def remove_body(self, body_id: str) -> None:
         record = self.bodies.pop(body_id)
-        geom_addr = _addr(record.geom)
-        self._by_geom.pop(geom_addr, None)
-        self._pair_surface = {k: v for k, v in self._pair_surface.items() if geom_addr not in k}
+        self._by_geom.pop(_addr(record.geom), None)
+        self._forget_pairs(record.geom)
         destroy_geom(record.geom, record.keep_alive)
         if record.body is not None:
             ode.dBodyDestroy(record.body)
@@ -271,8 +270,7 @@ class PhysicsWorld:
         preset): friction, restitution and, for a dynamic body, mass from the new density; its
         pose and velocities are kept."""
         record = self.bodies[spec.id]
-        geom_addr = _addr(record.geom)
-        self._pair_surface = {k: v for k, v in self._pair_surface.items() if geom_addr not in k}
+        self._forget_pairs(record.geom)
         old_density = record.spec.material.density
         record.spec = spec
         if record.body is not None and spec.material.density != old_density:
@@ -283,7 +281,12 @@ class PhysicsWorld:
             ode.dBodySetMass(record.body, ctypes.byref(mass))
             record.mass = float(mass.mass)
 
-    def set_hull(self, body_id: str, positions: NDArray, indices: NDArray) -> None:
+    def _forget_pairs(self, geom: Handle) -> None:
+        """Drop the contact surfaces made for `geom`'s pairs (its material or geom changed)."""
+        gone = _addr(geom)
+        self._pair_surface = {k: v for k, v in self._pair_surface.items() if gone not in k}
+
+    def set_surface(self, body_id: str, positions: NDArray, indices: NDArray) -> None:
         """Make a dynamic body's collision shape the closed triangles `positions` (n, 3), in its
         local frame, metres, and `indices` (m, 3), wound outwards: its dented surface
         (app/reshape.py). Its mass, inertia, pose and velocities are kept, and so is its place
@@ -295,7 +298,7 @@ class PhysicsWorld:
         self._replace_geom(record, geom, keep, -record.com_offset)
 
     def reset_shape(self, body_id: str) -> None:
-        """Give a body back the collision shape its spec makes (after `set_hull`)."""
+        """Give a body back the collision shape its spec makes (after `set_surface`)."""
         record = self.bodies[body_id]
         geom, keep, _ = make_geom(self.space, record.spec, record.mesh_arrays)
         offset = -record.com_offset if isinstance(record.spec.shape, MeshFile) else np.zeros(3)
@@ -312,7 +315,7 @@ class PhysicsWorld:
             if np.any(offset != 0):
                 ode.dGeomSetOffsetPosition(geom, *offset)
         self._by_geom.pop(_addr(old), None)
-        self._pair_surface = {k: v for k, v in self._pair_surface.items() if _addr(old) not in k}
+        self._forget_pairs(old)
         destroy_geom(old, record.keep_alive)
         # The new geom takes the old one's place (dSpaceAdd puts a geom at the front).
         for g in reversed([*order[:at], geom, *order[at + 1 :]]):
