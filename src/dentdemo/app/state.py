@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo import outputs
-from dentdemo.app.reshape import proxy_for
+from dentdemo.app.reshape import DentProxy, proxy_for
 from dentdemo.app.simulation import (
     CARVED_POINTS_KEPT,
     CarveRequest,
@@ -207,9 +207,8 @@ class SavedState:
     #: Each dentable body's height map, float32 [v, u], metres.
     heights: dict[str, NDArray[np.float32]]
     queue: tuple[CarveRequest, ...]
-    #: Collision shapes that follow dents (app/reshape.py), by body: the mesh vertices pressed
-    #: in, how far (m), how far the geom holds them, the deepest point at the last rebuild (m).
-    shapes: dict[str, tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], float]]
+    #: Collision shapes that follow dents (app/reshape.py), by body, pressed as they were saved.
+    shapes: dict[str, DentProxy]
     #: World metres.
     carved_points: tuple[NDArray[np.float64], ...]
     stats: SimStats
@@ -569,10 +568,11 @@ def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> Sa
 
 def _shapes(
     sim: Simulation, top: TableReader, specs: dict[str, BodySpec], order: list[str]
-) -> dict[str, tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], float]]:
+) -> dict[str, DentProxy]:
     """`shapes`: per dynamic dentable body of world.order, its pressed vertices (strictly
-    increasing indices into its mesh), how far each is in and how far its geom holds it
-    (0 <= shaped <= inward <= the material's deepest dent), the depth at the last rebuild."""
+    increasing indices into its proxy), how far each is in and how far its geom holds it
+    (0 <= shaped <= inward <= the material's deepest dent), the depth at the last rebuild; as
+    proxies pressed so."""
     t = top.table_at("shapes")
     out = {}
     for body_id in t.table:
@@ -581,8 +581,8 @@ def _shapes(
             raise t.fail(body_id, "is not a dynamic dentable body of world.order")
         r = t.table_at(body_id)
         body = sim.bodies.get(body_id)
-        own = body.mesh if body is not None else shape_mesh(spec.shape)
-        vertices = len(proxy_for(spec.shape, own).points)
+        proxy = proxy_for(spec.shape, body.mesh if body is not None else shape_mesh(spec.shape))
+        vertices = len(proxy.points)
         deepest = spec.material.max_dent_depth
         points = r.items("points", vertices)
         if not all(isinstance(k, int) and not isinstance(k, bool) for k in points) or (
@@ -591,21 +591,16 @@ def _shapes(
             raise r.fail("points", f"must be increasing vertex indices in [0, {vertices})")
         values = {}
         for key in ("inward", "shaped"):
-            v = r.items(key, vertices)
-            ok = len(v) == len(points) and all(
-                isinstance(x, int | float) and not isinstance(x, bool) for x in v
-            )
-            array = np.asarray(v, dtype=np.float64) if ok else np.zeros(0)
-            if not ok or not np.all(np.isfinite(array)):
-                raise r.fail(key, f"must be {len(points)} finite numbers, one a point")
+            array = np.asarray(r.vector(key, None, len(points)), dtype=np.float64)
             if np.any(array < 0) or np.any(array > deepest):
                 raise r.fail(key, f"must lie in [0, {deepest:g}] m (the material's deepest dent)")
             values[key] = array
         if np.any(values["shaped"] > values["inward"]):
             raise r.fail("shaped", "must not exceed 'inward' (dents only deepen)")
-        rebuilt = r.number("rebuilt_at", min_value=0.0, max_value=deepest)
+        proxy.rebuilt_at = r.number("rebuilt_at", min_value=0.0, max_value=deepest)
         r.finish()
-        out[body_id] = (np.asarray(points, np.int64), values["inward"], values["shaped"], rebuilt)
+        proxy.inward[points], proxy.shaped[points] = values["inward"], values["shaped"]
+        out[body_id] = proxy
     t.finish()
     return out
 
@@ -643,12 +638,9 @@ def apply_state(sim: Simulation, state: SavedState) -> None:
         body = sim.bodies[body_id]
         body.maps.height.write(height.tobytes())
         rebuild_all_normals(sim.gl, body.gpu_mesh, body.maps)
-    for body_id, (points, inward, shaped, rebuilt_at) in state.shapes.items():
-        body = sim.bodies[body_id]
-        proxy = sim.proxies[body_id] = proxy_for(body.spec.shape, body.mesh)
-        proxy.inward[points], proxy.shaped[points] = inward, shaped
-        proxy.rebuilt_at = rebuilt_at
-        if rebuilt_at > 0.0:
+    for body_id, proxy in state.shapes.items():
+        sim.proxies[body_id] = proxy
+        if proxy.rebuilt_at > 0.0:
             sim.world.set_surface(body_id, *proxy.surface())
     sim.queue = deque(state.queue)
     sim.carved_points.clear()
