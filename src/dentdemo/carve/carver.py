@@ -179,7 +179,8 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
 
 
 def _sphere_atlas() -> dict[str, str]:
-    """The built-in sphere's atlas (mesh/primitives.py) as defines for sphere_uv.glsl."""
+    """The built-in sphere's atlas (mesh/primitives.py) as defines for sphere_uv.glsl, and its
+    gutter, which capsule_uv.glsl shares."""
     from dentdemo.mesh.primitives import CUBE_FACES, GUTTER
 
     def table(k: int) -> str:
