@@ -321,3 +321,36 @@ def test_quality_switches_while_the_scene_runs(gl):
         assert len(np.unique(image.reshape(-1, 3), axis=0)) > 200
     finally:
         app.close()
+
+
+def test_a_body_s_first_hit_builds_no_mesh_query_structures(gl, monkeypatch):
+    """A dropped ball's clusters, uv derivatives, chart borders and closedness are built when
+    the ball is made, not in the frame of its first hit (they cost ~2 ms a ball there)."""
+    from dentdemo.app.simulation import Simulation
+    from dentdemo.mesh import mesh as mesh_module
+
+    lib = load_materials()
+    sim = Simulation(gl, load_scene(BALL_DROP, lib), lib)
+    ball = sim.drop_ball((0.0, 0.1, 0.0), velocity=(0.0, -3.0, 0.0), radius=0.02)
+
+    def built(*_args: object, **_kwargs: object) -> None:
+        raise AssertionError("a mesh query structure was built during a carve")
+
+    # The clusters' and the closedness's builders (a new mesh's tangents, as a collision
+    # proxy's at a first dent, use the uv derivatives: those are left to the reached counts).
+    monkeypatch.setattr(mesh_module, "_morton_order", built)
+    monkeypatch.setattr("dentdemo.model.shapes.mesh_volume", built)
+    derived = mesh_module.Mesh.triangle_derivatives
+    reached: list[int] = []
+
+    def derivatives(self, which=None):  # noqa: ANN001, ANN202 - Mesh.triangle_derivatives
+        if getattr(self, "_derivative_cache", None) is None:
+            reached.append(id(self))
+        return derived(self, which)
+
+    monkeypatch.setattr(mesh_module.Mesh, "triangle_derivatives", derivatives)
+    for _ in range(40):
+        sim.step()
+    assert sim.stats.hits > 0  # the ball landed and was carved
+    assert id(sim.bodies[ball].mesh) not in reached
+    sim.close()

@@ -196,6 +196,7 @@ class DentableSurface:
             raise ArgumentError(f"max_dent_depth must be > 0 metres, got {max_dent_depth!r}")
         self.model = np.eye(4) if model is None else model
         self._mesh = _as_mesh(mesh)
+        self._mesh.prepare_queries()  # not at the surface's first press
         self._gl = _wrap(ctx)
         with preserved(ctx):
             self._gpu: GpuMesh | None = GpuMesh(self._gl, self._mesh)

@@ -136,6 +136,7 @@ class Simulation:
     # -- bodies --------------------------------------------------------------------------------
     def _add_render_body(self, spec: BodySpec) -> SimBody:
         mesh = shape_mesh(spec.shape)
+        mesh.prepare_queries()  # not at the body's first hit (a carve's frame)
         gpu = GpuMesh(self.gl, mesh)
         size = map_side(spec, mesh)
         start = None

@@ -179,6 +179,17 @@ class Mesh:
         self._cluster_cache = (group_centre, group_radius, members, len(self.indices))
         return group_centre, group_radius, members
 
+    def prepare_queries(self) -> None:
+        """Build now the cached structures pass 1 queries (corners, bounding spheres, clusters,
+        uv derivatives, chart borders, closedness), as a body is made: otherwise each body
+        builds them at its first hit, which then costs about 2 ms more for a 1 700-triangle
+        ball on the development VM (a sandbox drop's first hits are mostly first hits)."""
+        self.corner_array()
+        self.clusters()
+        self.triangle_derivatives()
+        self.chart_border()
+        self.encloses_volume()
+
     def surface_area(self) -> float:
         a, b, c = self.triangle_corners()
         return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
