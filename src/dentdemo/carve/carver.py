@@ -27,7 +27,6 @@ from dentdemo.carve.texel_passes import (
     is_swept,
     model_uniforms,
     quad_kind,
-    rebuild_normals,
     swept_uniforms,
     texture_space_passes,
 )
@@ -303,21 +302,13 @@ class Carver:
         by the map they write."""
         self._camera_stage(jobs)
         by_map = sorted(jobs, key=lambda job: id(job.target.maps))
+        same_maps = [list(same) for _, same in groupby(by_map, key=lambda job: id(job.target.maps))]
         with self._timed("gather"):
-            for _, same_map in groupby(by_map, key=lambda job: id(job.target.maps)):
-                self._gather_passes(list(same_map))
+            for same_map in same_maps:
+                self._gather_passes(same_map)
         with self._timed("normals"):
-            for job in by_map:
-                target = job.target
-                rebuild_normals(
-                    self.gl,
-                    target.gpu_mesh,
-                    target.maps,
-                    target.model,
-                    job.camera,
-                    self._texel,
-                    job.target_uniforms,
-                )
+            for same_map in same_maps:
+                self._normal_passes(same_map)
 
     def measure_passes(
         self,
@@ -459,6 +450,27 @@ class Carver:
         if prog.glo not in self._quad_vaos:
             self._quad_vaos[prog.glo] = self.gl.ctx.vertex_array(prog, [])
         self._quad_vaos[prog.glo].render(moderngl.TRIANGLE_STRIP, vertices=4)
+
+    # -- pass 5 --------------------------------------------------------------------------------
+    def _normal_passes(self, jobs: list[CarveJob]) -> None:
+        """Pass 5 of `jobs`, which all dent one map (as `rebuild_normals` does one camera's):
+        its framebuffer bound once, the state applied once per variant."""
+        maps = jobs[0].target.maps
+        textures = (maps.height, maps.mask)
+        items: dict[int, list[tuple]] = {0: [], 1: []}
+        for job in jobs:
+            cam = job.camera
+            uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
+            for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
+                if len(triangles):
+                    draw = job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
+                    items[gutter].append((draw, uniforms))
+        for gutter, drawn in items.items():
+            if not drawn:
+                continue
+            with self._texel["normals", gutter, False].batch(self.gl.ctx, maps.normal_fbo) as one:
+                for draw, uniforms in drawn:
+                    one((0, 0, *maps.size), draw, textures, uniforms)
 
     # -- pass 4 --------------------------------------------------------------------------------
     def _gather_passes(self, jobs: list[CarveJob]) -> None:

@@ -253,7 +253,7 @@ def set_uniform(
         return  # already so: a batch's draws share most of their uniforms
     member = prog.get(name, None)  # a dict look-up; `name in prog` walks every member
     if member is None:
-        if strict_uniforms() and name not in selectors and name not in library_uniforms():
+        if name not in selectors and name not in library_uniforms() and strict_uniforms():
             files = declared.files if declared is not None else "a program"
             raise ShaderError(f"{files}: no shader declares a uniform named '{name}'")
         return
