@@ -12,7 +12,8 @@ from dentdemo.carve.linear import inverse3
 
 def _rotation(rng: np.random.Generator) -> np.ndarray:
     q, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    return q * np.sign(np.diag(r))
+    q = q * np.sign(np.diag(r))
+    return q if np.linalg.det(q) > 0 else q[:, ::-1]  # a rotation, not a reflection
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -40,3 +41,50 @@ def test_lowest_point_of_a_tilted_face_inside_a_rectangle() -> None:
     assert _faces_extreme(face, rect, lowest=True) == pytest.approx(-0.2)
     assert _faces_extreme(face, rect, lowest=False) == pytest.approx(0.1)
     assert _faces_extreme(face, Rect(1.5, 2.0, 0.0, 0.5), lowest=True) is None
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_determinant_and_scale_of_a_pose(seed: int) -> None:
+    # A rotation times a scale k has determinant k^3 and columns of length k; a mirror flips
+    # the determinant's sign only.
+    from dentdemo.carve.linear import column_scale, determinant3
+
+    rng = np.random.default_rng(seed)
+    k = rng.uniform(1e-2, 1e2)
+    pose = _rotation(rng) * k
+    assert determinant3(pose) == pytest.approx(k**3, rel=1e-12)
+    assert column_scale(pose) == pytest.approx(k, rel=1e-12)
+    mirrored = pose @ np.diag([-1.0, 1.0, 1.0])
+    assert determinant3(mirrored) == pytest.approx(-(k**3), rel=1e-12)
+    assert column_scale(mirrored) == pytest.approx(k, rel=1e-12)
+
+
+@pytest.mark.parametrize("mirror", [1.0, -1.0])
+@pytest.mark.parametrize("tilt", [0.0, 0.7, 1.4])
+def test_a_plate_s_top_faces_the_camera_above_it_and_its_bottom_turns_away(mirror, tilt) -> None:
+    # A 1 m plate tilted by `tilt` about x, seen along minus its top's normal: the top faces
+    # the camera (its outward normal has s = -1), the bottom faces away, at any pose. Mirrored
+    # across its own x, the posed windings turn over, and the faces follow them (as GL's
+    # culling, which passes 2 and 3 use, does): the top then turns away.
+    from dentdemo.carve.footprint import Projected
+    from dentdemo.mesh.primitives import box
+
+    plate = box((1.0, 0.02, 1.0))
+    c, s = np.cos(tilt), np.sin(tilt)
+    rotation = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    model = np.eye(4)
+    model[:3, :3] = rotation @ np.diag([mirror, 1.0, 1.0]) * 2.0
+    model[:3, 3] = (0.3, -0.2, 0.5)
+    top = rotation @ np.array([0.0, 1.0, 0.0])
+    forward = -top
+    right = np.array([1.0, 0.0, 0.0])
+    axes = np.stack([right, np.cross(right, forward), forward])
+    projected = Projected(plate, model, model[:3, 3] + top, axes)
+    # The box's faces by their outward (vertex) normals: +y the top, -y the bottom.
+    normal_y = plate.normals[plate.indices[:, 0], 1]
+    top_faces, bottom_faces = np.flatnonzero(normal_y > 0.5), np.flatnonzero(normal_y < -0.5)
+    towards, away = (top_faces, bottom_faces) if mirror > 0 else (bottom_faces, top_faces)
+    assert projected.faces_away(towards, away=False)
+    assert not projected.faces_away(towards, away=True)
+    assert projected.faces_away(away, away=True)
+    assert not projected.faces_away(away, away=False)

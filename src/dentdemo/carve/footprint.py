@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.carve.linear import column_scale, determinant3
 from dentdemo.mesh.mesh import Mesh
 
 Array = NDArray[np.float64]
@@ -68,7 +69,9 @@ class Projected:
         self._local_axes = axes @ m[:3, :3]  # row k: local vector whose dot gives camera axis k
         self._offset = axes @ (m[:3, 3] - origin)
         # Poses are rotations times a uniform scale: any column's length is the scale.
-        self._scale = float(np.sqrt((m[:3, :3] ** 2).sum(axis=0).max()))
+        self._scale = column_scale(m[:3, :3])
+        #: +1, or -1 for a pose that mirrors (its windings turn over).
+        self._handed = 1.0 if determinant3(m[:3, :3]) > 0.0 else -1.0
         self._mesh = mesh
         centre, radius, self._members = mesh.clusters()
         self._cluster_centres = self._to_camera(centre)
@@ -99,15 +102,13 @@ class Projected:
     def faces_away(self, which: Indices, away: bool = True) -> bool:
         """Whether any of triangles `which` faces away from the camera (its outward normal has
         a positive s: pass 3's back faces), or with `away` False towards it (pass 2's front
-        faces; edge-on faces neither). The camera's axes (x, y, s) are left-handed
-        (x cross y = -s), so the corners' cross product in these coordinates is minus the
-        normal."""
+        faces; edge-on faces neither)."""
         if len(which) == 0:
             return False
-        a, b, c = np.moveaxis(self.corners(which), 1, 0)
-        e1, e2 = b - a, c - a
-        negated_s = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        return bool((negated_s < 0.0).any() if away else (negated_s > 0.0).any())
+        # The winding's normal in local space, along the camera's s (a positive multiple of
+        # the posed normal's s: the pose is a rotation times a scale, mirrored by `_handed`).
+        s = self._mesh.face_normals()[which] @ (self._local_axes[2] * self._handed)
+        return bool((s > 0.0).any() if away else (s < 0.0).any())
 
     def spheres(self, which: Indices) -> tuple[Array, Array]:
         """Camera-space bounding spheres (centres (k, 3), radii (k,)) of triangles `which`."""

@@ -23,3 +23,15 @@ def inverse3(m: NDArray[np.float64]) -> NDArray[np.float64]:
             [dh_eg * r, (b * g - a * h) * r, (a * e - b * d) * r],
         ]
     )
+
+
+def determinant3(m: NDArray[np.float64]) -> float:
+    """The determinant of the 3 x 3 matrix `m`."""
+    (a, b, c), (d, e, f), (g, h, i) = m.tolist()
+    return a * (e * i - f * h) + b * (f * g - d * i) + c * (d * h - e * g)
+
+
+def column_scale(m: NDArray[np.float64]) -> float:
+    """The largest length of the 3 x 3 matrix `m`'s columns (a pose's scale)."""
+    (a, b, c), (d, e, f), (g, h, i) = m.tolist()
+    return max(a * a + d * d + g * g, b * b + e * e + h * h, c * c + f * f + i * i) ** 0.5

@@ -130,6 +130,16 @@ class Mesh:
             return cached
         return cached[0][which], cached[1][which]
 
+    def face_normals(self) -> NDArray[np.float64]:
+        """(m, 3) each triangle's (b - a) x (c - a), local, not normalised: outward by the
+        winding (cached)."""
+        cached = getattr(self, "_face_normal_cache", None)
+        if cached is None or len(cached) != len(self.indices):
+            a, b, c = self._bounds()[:3]
+            cached = np.cross(b - a, c - a)
+            self._face_normal_cache = cached
+        return cached
+
     def encloses_volume(self) -> bool:
         """Whether the surface is closed (its holes, if any, span at most MAX_OPEN_SHARE of its
         area): then it bounds a solid, and its faces seen from outside are its front faces. A
@@ -185,6 +195,7 @@ class Mesh:
         builds them at its first hit, which then costs about 2 ms more for a 1 700-triangle
         ball on the development VM (a sandbox drop's first hits are mostly first hits)."""
         self.corner_array()
+        self.face_normals()
         self.clusters()
         self.triangle_derivatives()
         self.chart_border()
