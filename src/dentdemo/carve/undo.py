@@ -67,12 +67,10 @@ def triangle_boxes(
     (x0, y0, x1, y1), half-open, texels; empty boxes dropped."""
     if len(triangles) == 0:
         return np.zeros((0, 4), np.int64)
-    uv = mesh.uvs[mesh.indices[np.asarray(triangles)]].astype(np.float64)  # (n, 3, 2) uv units
-    scale = np.array(size, dtype=np.float64)
-    lo = np.floor(uv.min(axis=1) * scale) - MARGIN
-    hi = np.ceil(uv.max(axis=1) * scale) + MARGIN
-    limit = np.array(size, dtype=np.float64)
-    boxes = np.hstack([np.clip(lo, 0, limit), np.clip(hi, 0, limit)]).astype(np.int64)
+    bounds = mesh.triangle_uv_bounds()[np.asarray(triangles)] * (size * 2)  # (n, 4) texels
+    bounds[:, :2] = np.floor(bounds[:, :2]) - MARGIN
+    bounds[:, 2:] = np.ceil(bounds[:, 2:]) + MARGIN
+    boxes = np.clip(bounds, 0, size * 2).astype(np.int64)
     return boxes[(boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])]
 
 
