@@ -12,8 +12,18 @@ import pytest
 
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import Carver
-from dentdemo.model.shapes import Capsule, Plate, Sphere
-from surface_helpers import DENTED, Bodies, heights, press_mesh, rotation, translation
+from dentdemo.model.shapes import Box, Capsule, Cylinder, Plate, Sphere
+from surface_helpers import (
+    DENTED,
+    Bodies,
+    ball_on,
+    heights,
+    press_mesh,
+    rotation,
+    slab_on,
+    tilt,
+    translation,
+)
 
 DOWN = np.array([0.0, -1.0, 0.0])
 #: Well apart on a 1 m plate: footprints (and the normals' ring) never meet.
@@ -260,3 +270,54 @@ def test_a_dented_sphere_drawn_as_a_quad_reads_its_own_heights(gl, bodies, shape
         assert float(diff.max()) <= step
     finally:
         carver.release()
+
+
+_SQRT_HALF = math.sqrt(0.5)
+#: A built-in target, where it is pressed (world) and the outward normal there, the press's tilt
+#: from square-on (degrees) and the tool: "ball" (a 3 cm ball) or "slab" (a box's face).
+_CONVEX_PRESSES = {
+    "plate square-on": (Plate(0.5), (0.05, 0.0, -0.02), (0, 1, 0), 0, "ball"),
+    "plate at 35 degrees": (Plate(0.5), (0.0, 0.0, 0.0), (0, 1, 0), 35, "ball"),
+    "plate at 65 degrees": (Plate(0.5), (0.0, 0.0, 0.0), (0, 1, 0), 65, "ball"),
+    "box edge": (Box((0.2, 0.2, 0.2)), (0.1, 0.1, 0.0), (_SQRT_HALF, _SQRT_HALF, 0), 0, "ball"),
+    "box corner": (Box((0.2, 0.2, 0.2)), (0.1, 0.1, 0.1), (1, 1, 1), 10, "ball"),
+    "ball on a slab": (Sphere(0.04), (0.0, 0.04, 0.0), (0, 1, 0), 40, "slab"),
+    "capsule where cap meets side": (Capsule(0.05, 0.2), (0.05, 0.0, 0.1), (1, 0, 0), 30, "ball"),
+    "cylinder rim": (Cylinder(0.1, 0.2), (0.1, 0.0, 0.1), (_SQRT_HALF, 0, _SQRT_HALF), 0, "ball"),
+}
+
+
+@pytest.mark.parametrize("case", list(_CONVEX_PRESSES))
+def test_a_convex_target_needs_no_address_map(gl, case):
+    """A built-in target hides none of its own surface (docs/carve.md, "Pass 2"): carving it
+    without pass 2 gives the same bits as with it, on both bodies, at edges, corners, caps and
+    steep tilts; and pass 2 is not drawn for it."""
+    shape, point, normal, degrees, tool_kind = _CONVEX_PRESSES[case]
+    bodies = Bodies(gl)
+    try:
+        results = []
+        for every in (True, False):
+            carver = Carver(gl)
+            carver.address_every_target = every
+            drawn: list[str] = []
+            passes = carver._camera_passes
+
+            def recorded(name, fbo, jobs, passes=passes, drawn=drawn):  # noqa: ANN001, ANN202
+                drawn.append(name)
+                passes(name, fbo, jobs)
+
+            carver._camera_passes = recorded  # type: ignore[method-assign]
+            target = bodies.make(press_mesh(shape, 2), 256)
+            make = ball_on if tool_kind == "ball" else slab_on
+            tool, n = make(bodies, point, normal)
+            contact = ContactFrame(np.asarray(point, dtype=np.float64), tilt(n, degrees))
+            assert len(carver.carve(target, tool, contact, 0.004, 0.002)) == 2
+            assert drawn == (["peel", "address"] if every else ["peel"])
+            results.append([_maps(gl, body) for body in (target, tool)])
+            carver.release()
+        for (h_all, n_all), (h_convex, n_convex) in zip(*results, strict=True):
+            assert (h_all < DENTED).sum() > 10  # each body took a dent
+            assert np.array_equal(h_all, h_convex)
+            assert np.array_equal(n_all, n_convex)
+    finally:
+        bodies.release()

@@ -20,6 +20,9 @@
 #ifndef EXIT
 #define EXIT 1
 #endif
+#ifndef CONVEX  // the target hides none of its own surface: pass 2 drew no address map for it
+#define CONVEX 0
+#endif
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
 uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front), LINEAR
@@ -156,6 +159,11 @@ void main() {
     for (int k = 0; k < 4 && !seen; ++k) {
         ivec2 q = base + (first ^ ivec2(k & 1, k >> 1));
         if (!inside_camera(q)) continue;
+#if CONVEX
+        // Every surface a pixel sees is at or behind the plane of each face turned towards it
+        // (the convex solid lies behind each), so the test below would always pass.
+        seen = true;
+#else
         vec4 address = texelFetch(u_address, q + u_tile, 0);
         float own = depth;
         if (plane) {
@@ -163,6 +171,7 @@ void main() {
             own = min(own, depth - (dot(face, u_right) * step.x + dot(face, u_up) * step.y) / face_s);
         }
         seen = seen || address.x <= NO_SURFACE || address.z >= own - tolerance;
+#endif
     }
     if (!seen) discard;
     // Behind the tool: in front of its nearest face at first touch (pass 3's front, less the

@@ -489,6 +489,8 @@ class DemoController:
     # -- frames --------------------------------------------------------------------------------
     def render(self, target: moderngl.Framebuffer | None = None) -> moderngl.Framebuffer:
         """Describe and draw the frame into `target` (default: the renderer's output)."""
+        # The address-map view shows pass 2, which convex targets otherwise leave out.
+        self.sim.carver.address_every_target = self.options.address_map
         frame = describe(self.sim, self.scenery, self.camera, self.options)
         return self.renderer.render(frame, target)
 

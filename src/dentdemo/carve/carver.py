@@ -81,6 +81,10 @@ class CarveJob:
     #: Whether some normal of the texels pass 4 draws is not the press direction: then pass 4
     #: finds each texel's exit from the swept solid along its normal (its EXIT variant).
     oblique: bool = True
+    #: Whether the target is a built-in shape, whose surface hides none of itself from the
+    #: camera (a convex solid, or a plate's flat face): pass 4 then needs no address map and
+    #: pass 2 is left out (its CONVEX variant; docs/carve.md, "Pass 2").
+    convex: bool = False
     #: The camera's lower-left pixel in the scratch atlas (set when its batch is packed).
     tile: tuple[int, int] = (0, 0)
 
@@ -255,6 +259,9 @@ class Carver:
         #: Per-triangle lists of what each pass draws on a software rasteriser, whose vertex work
         #: is CPU work; whole clusters on a GPU, where planning is the cost of a hit.
         self.exact_lists = gl.software
+        #: Draw pass 2 for every target, also for convex ones that pass 4 does not need it for
+        #: (the address-map debug view).
+        self.address_every_target = False
         #: Snapshots each batch's footprints before it is carved, when set (carve/undo.py).
         self.undo_log: UndoLog | None = None
 
@@ -411,19 +418,23 @@ class Carver:
             },
             {**view, **model_uniforms(advanced), **swept_uniforms(tool.gpu_mesh.mesh, advanced)},
             oblique=_oblique(target, camera),
+            convex=target.gpu_mesh.mesh.bound is not None,
         )
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
     def _camera_stage(self, jobs: list[CarveJob]) -> None:
         """Pass 3, then pass 2 (it reads pass 3's front faces), of every job of a batch, each
-        after one clear of the tiles' bounding box."""
+        after one clear of the tiles' bounding box; pass 2 only for the targets that may hide
+        part of themselves (not `convex`), unless `address_every_target`."""
         scratch = self.scratch
         with self._timed("peel"):
             self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
             self._camera_passes("peel", scratch.peel_fbo, jobs)
-        with self._timed("address"):
-            self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), jobs)
-            self._camera_passes("address", scratch.address_fbo, jobs)
+        hiding = [job for job in jobs if self.address_every_target or not job.convex]
+        if hiding:
+            with self._timed("address"):
+                self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), hiding)
+                self._camera_passes("address", scratch.address_fbo, hiding)
 
     def _camera_passes(self, name: str, fbo: moderngl.Framebuffer, jobs: list[CarveJob]) -> None:
         """Pass 2 ("address": each job's target) or 3 ("peel": its tool) drawn by each job's
@@ -494,7 +505,7 @@ class Carver:
                 if len(triangles) == 0:
                     continue
                 draw = job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
-                key = ("gather", gutter, bool(uniforms["u_swept"]), job.oblique)
+                key = ("gather", gutter, bool(uniforms["u_swept"]), job.oblique, job.convex)
                 variants.setdefault(key, []).append((draw, uniforms))
         for key, items in variants.items():
             with self._texel[key].batch(self.gl.ctx, maps.height_fbo) as one:

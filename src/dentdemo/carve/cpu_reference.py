@@ -102,7 +102,15 @@ class CpuReference:
         swept = bool(job.target_uniforms["u_swept"])
         advance = float(job.target_uniforms["u_advance"])  # type: ignore[arg-type]
         height = gather(
-            texels, cam, address, tool, maps.max_height, maps.max_dent_depth, advance, swept
+            texels,
+            cam,
+            address,
+            tool,
+            maps.max_height,
+            maps.max_dent_depth,
+            advance,
+            swept,
+            job.convex,
         )
         keep = np.isfinite(height)
         return texels.rows[keep], texels.cols[keep], height[keep]
@@ -153,10 +161,12 @@ def gather(
     max_dent_depth: float,
     advance: float = 0.0,
     swept: bool = False,
+    convex: bool = False,
 ) -> Array:
     """Pass 4 for every texel of `t`: the new height (metres), NaN where nothing changes.
     `advance`: how far the tool was advanced (metres); `swept`: the texels lie on a built-in
-    sphere or capsule's own solid (SWEPT 1)."""
+    sphere or capsule's own solid (SWEPT 1); `convex`: the target hides none of itself, and
+    `address` is not read (CONVEX 1)."""
     forward = np.asarray(cam.forward, dtype=np.float64)
     cos_view = -(t.normal @ forward)
     face_s = t.face @ forward
@@ -190,7 +200,7 @@ def gather(
         with np.errstate(invalid="ignore", divide="ignore"):
             along = depth - (face_x * (qx - px) * pitch_x + face_y * (qy - py) * pitch_y) / face_s
         own = np.where(plane, np.minimum(depth, along), depth)
-        visible |= ok & ((addr[:, 0] <= NO_SURFACE) | (addr[:, 2] >= own - tolerance))
+        visible |= ok & (convex | (addr[:, 0] <= NO_SURFACE) | (addr[:, 2] >= own - tolerance))
     seen = front & visible
     # Behind the tool: in front of its nearest face at first touch (gather.frag).
     nearest = tool[np.clip(iy, 0, rows - 1), np.clip(ix, 0, cols - 1), 3]

@@ -26,37 +26,38 @@ _NORMALS = PassState(clip_distances=CLIP_DISTANCES)
 
 
 def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
-    """Pass 4 by ("gather", gutter, swept, oblique) and pass 5 by ("normals", gutter, False):
-    each as a chart draw (GUTTER 0) and a gutter draw (GUTTER 1); the gather also for a swept
-    solid's own surface (SWEPT 1) and with or without the exit along each normal (EXIT; the
-    normal rebuild reads only the map, so it has neither variant). Cached per context."""
+    """Pass 4 by ("gather", gutter, swept, oblique, convex) and pass 5 by ("normals", gutter,
+    False): each as a chart draw (GUTTER 0) and a gutter draw (GUTTER 1); the gather also for a
+    swept solid's own surface (SWEPT 1), with or without the exit along each normal (EXIT), and
+    for a target that hides none of its own surface, without the address map (CONVEX; the
+    normal rebuild reads only the map, so it has none of these variants). Cached per context."""
     key = "carve:texture-space-passes"
     if key in gl.cache:
         return gl.cache[key]
     passes: dict[tuple, Pass] = {}
     gather = ("u_address", "u_tool_depth", "u_mask")
-    # (name, state, samplers, variants: (swept, oblique)); a swept solid's normals always vary.
-    kinds = (
-        ("gather", _GATHER, gather, ((False, False), (False, True), (True, True))),
-        ("normals", _NORMALS, ("u_height", "u_mask"), ((False, None),)),
+    # (name, state, samplers, variants: (swept, oblique, convex)): a swept solid's normals always
+    # vary and it is convex; the normal rebuild's only variant is (swept False,).
+    gathers = [(False, oblique, convex) for oblique in (False, True) for convex in (False, True)]
+    kinds: tuple[tuple[str, PassState, tuple[str, ...], list[tuple[bool, ...]]], ...] = (
+        ("gather", _GATHER, gather, [*gathers, (True, True, True)]),
+        ("normals", _NORMALS, ("u_height", "u_mask"), [(False,)]),
     )
     for gutter in (0, 1):
         geometry = "carve/texel.geom" if gutter else None
         for name, state, samplers, variants in kinds:
-            for swept, oblique in variants:
-                extra = {} if oblique is None else {"EXIT": int(oblique)}
+            for variant in variants:
+                names = ("SWEPT", "EXIT", "CONVEX")[: len(variant)]
+                defines = {key: int(value) for key, value in zip(names, variant, strict=True)}
                 prog = program(
                     gl.cache,
                     gl.ctx,
                     "carve/texel.vert",
                     f"carve/{name}.frag",
                     geometry,
-                    defines=shader_defines(GUTTER=gutter, SWEPT=int(swept), **extra),
+                    defines=shader_defines(GUTTER=gutter, **defines),
                 )
-                variant = (
-                    (name, gutter, swept) if oblique is None else (name, gutter, swept, oblique)
-                )
-                passes[variant] = Pass(name, prog, state, samplers, VARIANT_KEYS)
+                passes[(name, gutter, *variant)] = Pass(name, prog, state, samplers, VARIANT_KEYS)
     gl.cache[key] = passes
     return passes
 
