@@ -121,7 +121,9 @@ def _push(tmp_path, flat: float) -> tuple[float, float, float, float]:
 def test_a_flattened_ball_stays_on_its_flat_and_a_round_one_rolls(tmp_path):
     distance, turned, spin, late = _push(tmp_path, R / 3)
     assert distance == pytest.approx(0.2**2 / (2 * 0.5 * 9.81), rel=0.3)  # slides to rest
-    assert turned < 5.0 and late < 1e-4  # on its flat, at rest (ODE's contacts jitter its spin)
+    # On its flat, at rest: ODE's contacts jitter it by 0.02-0.14 mm over the second second,
+    # depending on 1e-10 m changes of the flat's vertices; a rolling ball covers 140 mm.
+    assert turned < 5.0 and late < 1e-3
     distance, turned, spin, late = _push(tmp_path, 0.0)
     rolling = (5 / 7) * 0.2  # m/s once it rolls without slipping
     assert distance > 0.9 * rolling * 2.0  # rolls on
@@ -239,3 +241,35 @@ def test_undo_and_repair_give_the_collision_shape_back(gl, tmp_path, how):
             sim.step()
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize("kind", ["sphere", "box", "ground"])
+def test_a_point_leaves_a_solid_where_its_distance_crosses_zero(kind):
+    # The closed-form exit of a point moving along a line through a convex solid, against the
+    # solid's own signed distance: zero there, negative just before.
+    from dentdemo.app.reshape import box_field
+
+    rng = np.random.default_rng(7)
+    if kind == "sphere":
+        solid = sphere_field(np.array([0.1, -0.2, 0.3]), 0.05)
+        centre, reach = np.array([0.1, -0.2, 0.3]), 0.03
+    elif kind == "box":
+        model = np.eye(4)
+        model[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        model[:3, 3] = (0.2, 0.1, -0.1)
+        solid = box_field(model, np.array([0.05, 0.02, 0.08]))
+        centre, reach = model[:3, 3], 0.015
+    else:
+        solid = ground_field(0.25)
+        centre, reach = np.array([0.0, 0.2, 0.0]), 0.04
+    points = centre + rng.uniform(-reach, reach, size=(200, 3))
+    points = points[solid(points) < 0.0]
+    d = rng.normal(size=(len(points), 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    if kind == "ground":
+        d[:, 1] = np.abs(d[:, 1]) + 0.05  # upwards: a half-space is left only that way
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+    a = solid.leave(points, d)
+    assert len(points) > 50 and np.isfinite(a).all() and (a > 0).all()
+    assert np.abs(solid(points + a[:, None] * d)).max() < 1e-12
+    assert (solid(points + (a - 1e-6)[:, None] * d) < 0).all()

@@ -36,8 +36,9 @@ RESHAPE_FRACTION = 0.25
 #: triangle: a sphere of 3 x 3 cells a cube face has 108 triangles).
 COLLISION = Tessellation(sphere=3, around=12, rings=3)
 
-#: Bisection steps for where a point leaves the tool's solid (the interval halves each step:
-#: 2^-30 of the depth bound).
+#: Bisection steps for where a point leaves the tool's solid when that has no closed form here
+#: (a capsule, a cylinder; a sphere, box, plate or the ground have one): the interval halves
+#: each step, to 2^-30 of the depth bound.
 _STEPS = 30
 
 Field = Callable[[NDArray[np.float64]], NDArray[np.float64]]
@@ -69,9 +70,70 @@ def _unit_proxy() -> DentProxy:
     return DentProxy.of(shape_mesh(Sphere(1.0), COLLISION))
 
 
+class _Solid:
+    """A convex solid's signed distance (a `Field`: world metres, < 0 inside) with `leave`,
+    where a point moving along a line leaves it, in closed form (no bisection)."""
+
+    def __call__(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        raise NotImplementedError
+
+    def leave(self, p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
+        """For points `p` (k, 3) inside the solid moving along unit `d` (k, 3): the distance
+        each goes before it leaves (the line's far crossing of the surface; inf: never)."""
+        raise NotImplementedError
+
+
+class _Sphere(_Solid):
+    def __init__(self, centre: NDArray[np.float64], radius: float) -> None:
+        self.centre, self.radius = np.asarray(centre, dtype=np.float64), float(radius)
+
+    def __call__(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.linalg.norm(p - self.centre, axis=1) - self.radius
+
+    def leave(self, p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
+        # |v + a d| = r, v = p - centre: a^2 + 2 a (v.d) + |v|^2 - r^2 = 0, the larger root.
+        v = p - self.centre
+        b = (v * d).sum(axis=1)
+        c = (v * v).sum(axis=1) - self.radius**2
+        return -b + np.sqrt(np.maximum(b * b - c, 0.0))
+
+
+class _Box(_Solid):
+    def __init__(self, model: NDArray[np.float64], half: NDArray[np.float64]) -> None:
+        self.rotation, self.origin = model[:3, :3], model[:3, 3]
+        self.half = np.asarray(half, dtype=np.float64)
+
+    def __call__(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        q = np.abs((p - self.origin) @ self.rotation) - self.half
+        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+        return outside + np.minimum(q.max(axis=1), 0.0)
+
+    def leave(self, p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
+        # In the box's frame, each pair of faces is left where q + a e = +-half along that axis;
+        # the point leaves the box at the first of the three.
+        q, e = (p - self.origin) @ self.rotation, d @ self.rotation
+        with np.errstate(divide="ignore", invalid="ignore"):
+            far = np.where(e > 0, (self.half - q) / e, (-self.half - q) / e)
+        far = np.where(np.abs(e) < 1e-300, np.inf, far)
+        return np.maximum(far.min(axis=1), 0.0)
+
+
+class _Below(_Solid):
+    def __init__(self, height: float) -> None:
+        self.height = float(height)
+
+    def __call__(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return p[:, 1] - self.height
+
+    def leave(self, p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
+        rise = d[:, 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(rise > 0, np.maximum((self.height - p[:, 1]) / rise, 0.0), np.inf)
+
+
 def sphere_field(centre: NDArray[np.float64], radius: float) -> Field:
     """Signed distance to a sphere (world metres, < 0 inside)."""
-    return lambda p: np.linalg.norm(p - centre, axis=1) - radius
+    return _Sphere(centre, radius)
 
 
 def capsule_field(a: NDArray[np.float64], b: NDArray[np.float64], radius: float) -> Field:
@@ -89,19 +151,12 @@ def capsule_field(a: NDArray[np.float64], b: NDArray[np.float64], radius: float)
 def box_field(model: NDArray[np.float64], half: NDArray[np.float64]) -> Field:
     """Signed distance to a box of half extents `half` about the origin of `model` (world from
     local, a rotation and a translation)."""
-    rotation, origin = model[:3, :3], model[:3, 3]
-
-    def field(p: NDArray[np.float64]) -> NDArray[np.float64]:
-        q = np.abs((p - origin) @ rotation) - half
-        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
-        return outside + np.minimum(q.max(axis=1), 0.0)
-
-    return field
+    return _Box(model, half)
 
 
 def ground_field(height: float) -> Field:
     """Signed distance to the half-space below y = `height`."""
-    return lambda p: p[:, 1] - height
+    return _Below(height)
 
 
 def cylinder_field(model: NDArray[np.float64], radius: float, length: float) -> Field:
@@ -213,6 +268,10 @@ class DentProxy:
         if len(unknown) and self.source is not None:
             self.thickness[unknown] = vertex_thickness(self.source, unknown)
         bound = np.minimum(max_depth, self.thickness[k])
+        if isinstance(tool, _Solid):  # convex, in closed form: where the line leaves it
+            leaves = tool.leave(world[k] - shift, -normal[k])
+            self.inward[k] = np.maximum(self.inward[k], np.minimum(leaves, bound))
+            return
         lo, hi = self.inward[k].copy(), bound.copy()
         still = inside(hi, k)  # past the bound and still inside: the bound
         for _ in range(_STEPS):
