@@ -88,3 +88,35 @@ def test_a_plate_s_top_faces_the_camera_above_it_and_its_bottom_turns_away(mirro
     assert not projected.faces_away(towards, away=True)
     assert projected.faces_away(away, away=True)
     assert not projected.faces_away(away, away=False)
+
+
+def test_the_extent_of_a_face_cut_by_a_slab() -> None:
+    # A square face s = 0.5 x over x, y in [-1, 1] (two triangles), cut by 0 <= s <= 0.25:
+    # the part with 0 <= x <= 0.5, all y. Above or below it: nothing. Inside it whole: itself.
+    from dentdemo.carve.footprint import _faces_slab_rect
+
+    corners = [(-1, -1), (1, -1), (1, 1), (-1, 1)]
+    square = [[float(x), float(y), 0.5 * x] for x, y in corners]
+    faces = [[square[0], square[1], square[2]], [square[0], square[2], square[3]]]
+    rect = _faces_slab_rect(faces, 0.0, 0.25)
+    assert rect is not None
+    assert (rect.x0, rect.x1, rect.y0, rect.y1) == pytest.approx((0.0, 0.5, -1.0, 1.0))
+    assert _faces_slab_rect(faces, 0.6, 0.9) is None
+    assert _faces_slab_rect(faces, -0.7, -0.6) is None
+    whole = _faces_slab_rect(faces, -1.0, 1.0)
+    assert whole is not None and (whole.x0, whole.x1, whole.y0, whole.y1) == (-1, 1, -1, 1)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_faces_slab_extent_equals_the_meshes_one(seed: int) -> None:
+    # The Python-float path for a built-in shape's few faces and the numpy path for a mesh's
+    # triangles take the same points, so they give the same extent to the bit.
+    from dentdemo.carve.footprint import _faces_slab_rect, slab_rect
+
+    rng = np.random.default_rng(seed)
+    tris = rng.normal(size=(12, 3, 3))
+    for lo, hi in ((-0.3, 0.4), (0.5, 0.6), (-5.0, 5.0), (2.0, 3.0)):
+        a, b = _faces_slab_rect(tris.tolist(), lo, hi), slab_rect(tris, lo, hi)
+        assert (a is None) == (b is None)
+        if a is not None and b is not None:
+            assert (a.x0, a.x1, a.y0, a.y1) == (b.x0, b.x1, b.y0, b.y1)

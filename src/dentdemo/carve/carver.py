@@ -172,11 +172,15 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     mesh = target.gpu_mesh.mesh
     if is_swept(mesh):
         return True  # a sphere or capsule's own normals
-    which = np.unique(mesh.indices[camera.target_texels].ravel())
-    if len(which) == 0:
+    if len(camera.target_texels) == 0:
         return False
+    shared = mesh.shared_normal()  # a flat mesh (a plate): one normal to look at
+    if shared is not None:
+        local = shared[None, :]
+    else:
+        local = mesh.normals[np.unique(mesh.indices[camera.target_texels].ravel())]
     m = np.asarray(target.model, dtype=np.float64)[:3, :3]
-    normals = mesh.normals[which].astype(np.float64) @ inverse3(m)  # world, by rows
+    normals = local.astype(np.float64) @ inverse3(m)  # world, by rows
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
 

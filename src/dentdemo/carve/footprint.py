@@ -13,7 +13,9 @@ that exact test, so a hit's CPU work follows the triangles near the footprint.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -73,9 +75,6 @@ class Projected:
         #: +1, or -1 for a pose that mirrors (its windings turn over).
         self._handed = 1.0 if determinant3(m[:3, :3]) > 0.0 else -1.0
         self._mesh = mesh
-        centre, radius, self._members = mesh.clusters()
-        self._cluster_centres = self._to_camera(centre)
-        self._cluster_radii = radius * self._scale
         bound = mesh.bound
         #: A built-in shape's solid: a swept sphere (segment, radius) or its few faces.
         self._segment = (
@@ -89,6 +88,14 @@ class Projected:
         self.solid = mesh.encloses_volume()
         self._s_range: tuple[float, float] | None = None
         self._rect: Rect | None = None
+
+    @cached_property
+    def _clusters(self) -> tuple[Array, Array, NDArray[np.int64]]:
+        """The mesh's triangle clusters in camera coordinates: centres (k, 3), radii (k,),
+        members (k, CLUSTER_SIZE); made when a query first needs them (a built-in shape's
+        extents come from its solid)."""
+        centre, radius, members = self._mesh.clusters()
+        return self._to_camera(centre), radius * self._scale, members
 
     def _to_camera(self, local: Array) -> Array:
         flat = local.reshape(-1, 3) @ self._local_axes.T
@@ -116,16 +123,36 @@ class Projected:
         return self._to_camera(centre[which]), radius[which] * self._scale
 
     def s_range(self) -> tuple[float, float]:
-        """Bounds of s over the whole mesh (from the cluster spheres; computed once)."""
+        """Bounds of s over the whole mesh (from the cluster spheres, or a built-in shape's
+        solid; computed once)."""
         if self._s_range is None:
-            c, r = self._cluster_centres[:, 2], self._cluster_radii
-            self._s_range = float((c - r).min()), float((c + r).max())
+            if self._segment is not None:
+                s = self._segment[:, 2].tolist()
+                self._s_range = min(s) - self._radius, max(s) + self._radius
+            elif self._faces is not None:
+                s = self._faces[..., 2]
+                self._s_range = float(s.min()), float(s.max())
+            else:
+                centre, radius, _ = self._clusters
+                c = centre[:, 2]
+                self._s_range = float((c - radius).min()), float((c + radius).max())
         return self._s_range
 
     def rect(self) -> Rect:
-        """Bounds of x, y over the whole mesh (from the cluster spheres; computed once)."""
+        """Bounds of x, y over the whole mesh (from the cluster spheres, or a built-in shape's
+        solid; computed once)."""
         if self._rect is None:
-            self._rect = _sphere_rect(self._cluster_centres, self._cluster_radii)
+            if self._segment is not None:
+                (xa, ya, _), (xb, yb, _) = self._segment.tolist()
+                r = self._radius
+                self._rect = Rect(
+                    min(xa, xb) - r, max(xa, xb) + r, min(ya, yb) - r, max(ya, yb) + r
+                )
+            elif self._faces is not None:
+                x, y = self._faces[..., 0], self._faces[..., 1]
+                self._rect = Rect(float(x.min()), float(x.max()), float(y.min()), float(y.max()))
+            else:
+                self._rect = _sphere_rect(*self._clusters[:2])
         return self._rect
 
     def meeting(self, rect: Rect, slab: tuple[float, float] | None = None) -> Indices:
@@ -142,11 +169,11 @@ class Projected:
             union: tuple[float, float] = (-np.inf, np.inf)
         else:
             union = (min(sl[0] for sl in slabs), max(sl[1] for sl in slabs))  # type: ignore[index]
-        c, r = self._cluster_centres, self._cluster_radii
+        c, r, all_members = self._clusters
         groups = _meets(c, r, rect, union)
         if not exact:
             s_c, r_c = c[groups, 2], r[groups]
-            members = self._members[groups]
+            members = all_members[groups]
             return [
                 _valid(
                     members
@@ -155,9 +182,11 @@ class Projected:
                 )
                 for slab in slabs
             ]
-        members = self._members[groups].ravel()
-        members = members[members >= 0]
-        centre, radius = self.spheres(members)
+        # The triangles of those clusters, whole rows at once (padding is NaN: never meets).
+        centres, radii = self._mesh.cluster_members_spheres()
+        members = all_members[groups].ravel()
+        centre = self._to_camera(centres[groups].reshape(-1, 3))
+        radius = radii[groups].ravel() * self._scale
         near = _meets(centre, radius, rect, union)
         members, s, radius = members[near], centre[near, 2], radius[near]
         return [
@@ -173,8 +202,9 @@ class Projected:
             return float(s.min() - self._radius) if lowest else float(s.max() + self._radius)
         if self._faces is not None:
             return _faces_extreme(self._faces, rect, lowest)
-        c, r = self._cluster_centres[:, 2], self._cluster_radii
-        groups = _meets(self._cluster_centres, self._cluster_radii, rect, None)
+        centre, r, all_members = self._clusters
+        c = centre[:, 2]
+        groups = _meets(centre, r, rect, None)
         if not groups.any():
             return None
         # Only groups (then triangles) whose sphere may hold the extreme need the exact test.
@@ -182,7 +212,7 @@ class Projected:
             groups &= c - r <= (c + r)[groups].min()
         else:
             groups &= c + r >= (c - r)[groups].max()
-        members = self._members[groups].ravel()
+        members = all_members[groups].ravel()
         which = members[members >= 0]
         centre, radius = self.spheres(which)
         which = which[_meets(centre, radius, rect, None)]
@@ -197,7 +227,7 @@ class Projected:
         if self._segment is not None:
             return swept_sphere_slab(self._segment, self._radius, lo, hi)
         if self._faces is not None:
-            return slab_rect(self._faces, lo, hi)
+            return _faces_slab_rect(self._faces.tolist(), lo, hi)
         which = self.meeting(rect, (lo, hi))
         if len(which) == 0:
             return None
@@ -248,7 +278,7 @@ def swept_sphere_slab(segment: Array, radius: float, lo: float, hi: float) -> Re
     """A bound of the x, y extent of the part with lo <= s <= hi of a sphere of `radius` swept
     along `segment` (2, 3): exact for a sphere, the disc's radius at the slab's nearest depth
     taken along the whole clipped axis for a capsule."""
-    a, b = segment
+    a, b = segment.tolist()  # Python floats: a few scalars (numpy costs more per call)
     ds = b[2] - a[2]
     # The part of the axis within `radius` of the slab (parameters t in [0, 1]).
     if abs(ds) < 1e-15:
@@ -260,13 +290,14 @@ def swept_sphere_slab(segment: Array, radius: float, lo: float, hi: float) -> Re
         t0, t1 = max(t0, 0.0), min(t1, 1.0)
         if t0 > t1:
             return None
-    p0, p1 = a + t0 * (b - a), a + t1 * (b - a)
+    p0 = [x + t0 * (y - x) for x, y in zip(a, b, strict=True)]
+    p1 = [x + t1 * (y - x) for x, y in zip(a, b, strict=True)]
     # How far the nearest axis point lies outside the slab along s: the disc there is smallest.
     s_near = min(max(lo, min(p0[2], p1[2])), max(p0[2], p1[2]))
     gap = max(lo - s_near, s_near - hi, 0.0)
     if min(p0[2], p1[2]) <= hi and max(p0[2], p1[2]) >= lo:
         gap = 0.0
-    reach = float(np.sqrt(max(radius * radius - gap * gap, 0.0)))
+    reach = math.sqrt(max(radius * radius - gap * gap, 0.0))
     return Rect(
         min(p0[0], p1[0]) - reach,
         max(p0[0], p1[0]) + reach,
@@ -302,6 +333,40 @@ def _meets(
     if slab is not None:
         keep &= (centre[:, 2] + radius >= slab[0]) & (centre[:, 2] - radius <= slab[1])
     return keep
+
+
+def _faces_slab_rect(faces: list[list[Point]], lo: float, hi: float) -> Rect | None:
+    """`slab_rect` of a built-in shape's few faces, on Python floats: the same points (the
+    corners of faces inside the slab; of faces it cuts, their corners inside it and their
+    edges' crossings of its planes), so the same extent."""
+    xs: list[float] = []
+    ys: list[float] = []
+    for tri in faces:
+        s = [p[2] for p in tri]
+        s_min, s_max = min(s), max(s)
+        if s_max < lo or s_min > hi:
+            continue
+        if s_min >= lo and s_max <= hi:
+            xs += [p[0] for p in tri]
+            ys += [p[1] for p in tri]
+            continue
+        for p in tri:
+            if lo <= p[2] <= hi:
+                xs.append(p[0])
+                ys.append(p[1])
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            a, b = tri[i], tri[j]
+            span = b[2] - a[2]
+            if abs(span) <= 1e-300:
+                continue
+            for plane in (lo, hi):
+                f = (plane - a[2]) / span
+                if 0.0 <= f <= 1.0:
+                    xs.append(a[0] + f * (b[0] - a[0]))
+                    ys.append(a[1] + f * (b[1] - a[1]))
+    if not xs:
+        return None
+    return Rect(min(xs), max(xs), min(ys), max(ys))
 
 
 def slab_rect(tris: Array, lo: float, hi: float) -> Rect | None:

@@ -149,6 +149,16 @@ class Mesh:
             self._uv_bounds_cache = cached
         return cached
 
+    def shared_normal(self) -> NDArray[np.float32] | None:
+        """The normal every vertex has, where they all have the same one (a plate), else None
+        (cached)."""
+        cached = getattr(self, "_shared_normal_cache", None)
+        if cached is None or cached[1] != len(self.normals):
+            same = len(self.normals) > 0 and bool((self.normals == self.normals[0]).all())
+            cached = (self.normals[0].copy() if same else None, len(self.normals))
+            self._shared_normal_cache = cached
+        return cached[0]
+
     def encloses_volume(self) -> bool:
         """Whether the surface is closed (its holes, if any, span at most MAX_OPEN_SHARE of its
         area): then it bounds a solid, and its faces seen from outside are its front faces. A
@@ -208,9 +218,27 @@ class Mesh:
         self.face_normals()
         self.triangle_uv_bounds()
         self.clusters()
+        self.cluster_members_spheres()
+        self.shared_normal()
         self.triangle_derivatives()
         self.chart_border()
         self.encloses_volume()
+
+    def cluster_members_spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The bounding spheres of each cluster's triangles laid out as `clusters()`'s members:
+        centres (k, CLUSTER_SIZE, 3) and radii (k, CLUSTER_SIZE), local metres, NaN where a
+        cluster is short (cached): a query takes whole rows of them, without gathering."""
+        cached = getattr(self, "_member_sphere_cache", None)
+        if cached is None or cached[2] != len(self.indices):
+            centre, radius = self.triangle_spheres()
+            members = self.clusters()[2]
+            valid = members >= 0
+            safe = np.where(valid, members, 0)
+            centres = np.where(valid[..., None], centre[safe], np.nan)
+            radii = np.where(valid, radius[safe], np.nan)
+            cached = (centres, radii, len(self.indices))
+            self._member_sphere_cache = cached
+        return cached[0], cached[1]
 
     def surface_area(self) -> float:
         a, b, c = self.triangle_corners()
@@ -270,11 +298,13 @@ class Mesh:
         gives the exact nearest point."""
         p = np.asarray(point, dtype=np.float64)
         group_centre, group_radius, members = self.clusters()
-        to_group = np.sqrt(((group_centre - p) ** 2).sum(1))
+        d = group_centre - p
+        to_group = np.sqrt(np.einsum("ij,ij->i", d, d))
         group = members[int(np.argmin(to_group - group_radius))]
         group = group[group >= 0]
         centre, _ = self.triangle_spheres()
-        k = int(group[np.argmin(((centre[group] - p) ** 2).sum(1))])
+        d = centre[group] - p
+        k = int(group[np.argmin(np.einsum("ij,ij->i", d, d))])
         dpdu, dpdv = self.triangle_derivatives()
         du, dv = dpdu[k], dpdv[k]
         a = self.positions[self.indices[k, 0]].astype(np.float64)
