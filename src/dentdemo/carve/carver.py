@@ -9,7 +9,6 @@ import contextlib
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field, replace
-from itertools import groupby
 from typing import TYPE_CHECKING
 
 import moderngl
@@ -312,14 +311,11 @@ class Carver:
         faces): one clear of the atlas per camera pass, the gathers and normal rebuilds grouped
         by the map they write."""
         self._camera_stage(jobs)
-        by_map = sorted(jobs, key=lambda job: id(job.target.maps))
-        same_maps = [list(same) for _, same in groupby(by_map, key=lambda job: id(job.target.maps))]
+        by_map = sorted(jobs, key=lambda job: id(job.target.maps))  # one map's draws together
         with self._timed("gather"):
-            for same_map in same_maps:
-                self._gather_passes(same_map)
+            self._gather_passes(by_map)
         with self._timed("normals"):
-            for same_map in same_maps:
-                self._normal_passes(same_map)
+            self._normal_passes(by_map)
 
     def measure_passes(
         self,
@@ -468,34 +464,27 @@ class Carver:
 
     # -- pass 5 --------------------------------------------------------------------------------
     def _normal_passes(self, jobs: list[CarveJob]) -> None:
-        """Pass 5 of `jobs`, which all dent one map (as `rebuild_normals` does one camera's):
-        its framebuffer bound once, the state applied once per variant."""
-        maps = jobs[0].target.maps
-        textures = (maps.height, maps.mask)
+        """Pass 5 of `jobs` (sorted by the map they dent; as `rebuild_normals` does one
+        camera's): the state applied once per variant, each map's framebuffer bound once."""
         items: dict[int, list[tuple]] = {0: [], 1: []}
         for job in jobs:
-            cam = job.camera
+            cam, maps = job.camera, job.target.maps
             uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
             for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
                 if len(triangles):
                     draw = job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
-                    items[gutter].append((draw, uniforms))
+                    items[gutter].append((maps, draw, (maps.height, maps.mask), uniforms))
         for gutter, drawn in items.items():
-            if not drawn:
-                continue
-            with self._texel["normals", gutter, False].batch(self.gl.ctx, maps.normal_fbo) as one:
-                for draw, uniforms in drawn:
-                    one((0, 0, *maps.size), draw, textures, uniforms)
+            if drawn:
+                self._texture_space(self._texel["normals", gutter, False], drawn, "normal_fbo")
 
     # -- pass 4 --------------------------------------------------------------------------------
     def _gather_passes(self, jobs: list[CarveJob]) -> None:
-        """Pass 4 of `jobs`, which all dent one map: its framebuffer bound once, the state
-        applied once per variant."""
-        maps = jobs[0].target.maps
-        textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
+        """Pass 4 of `jobs` (sorted by the map they dent): the state applied once per variant,
+        each map's framebuffer bound once in it."""
         variants: dict[tuple, list[tuple]] = {}
         for job in jobs:
-            cam = job.camera
+            cam, maps = job.camera, job.target.maps
             px, py = cam.pixel_metres
             uniforms = {
                 **job.target_uniforms,
@@ -504,14 +493,20 @@ class Carver:
                 "u_ceiling": maps.max_height,
                 "u_pixel_diagonal": float(np.hypot(px, py)),
             }
+            textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
             for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
                 if len(triangles) == 0:
                     continue
                 draw = job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
                 key = ("gather", gutter, bool(uniforms["u_swept"]), job.oblique, job.convex)
-                variants.setdefault(key, []).append((draw, uniforms))
+                variants.setdefault(key, []).append((maps, draw, textures, uniforms))
         for key, items in variants.items():
-            with self._texel[key].batch(self.gl.ctx, maps.height_fbo) as one:
-                for draw, uniforms in items:
-                    one((0, 0, *maps.size), draw, textures, uniforms)
+            self._texture_space(self._texel[key], items, "height_fbo")
+
+    def _texture_space(self, pass_: Pass, items: list[tuple], target: str) -> None:
+        """`pass_` drawn over `items` (maps, draw, textures, uniforms) in order, each into its
+        maps' framebuffer `target` ("height_fbo" or "normal_fbo") over the whole map."""
+        with pass_.batch(self.gl.ctx, getattr(items[0][0], target)) as one:
+            for maps, draw, textures, uniforms in items:
+                one((0, 0, *maps.size), draw, textures, uniforms, into=getattr(maps, target))

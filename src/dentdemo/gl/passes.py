@@ -191,14 +191,22 @@ class Pass:
     @contextmanager
     def batch(self, ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> Iterator[Draw]:
         """The pass run many times into `fbo`, its state applied once: yields
-        `one(viewport, draw, textures, uniforms)`, each call as `run` with those arguments."""
+        `one(viewport, draw, textures, uniforms, into=None)`, each call as `run` with those
+        arguments; `into` draws into another framebuffer (bound when it changes, the state
+        kept: a pass over many maps)."""
+        bound = [fbo]
 
         def one(
             viewport: tuple[int, int, int, int],
             draw: Callable[[moderngl.Program], None],
             textures: Sequence[Sampled] = (),
             uniforms: Mapping[str, object] | None = None,
+            into: moderngl.Framebuffer | None = None,
         ) -> None:
+            if into is not None and into is not bound[0]:
+                into.use()  # applies its own masks: the pass's depth mask again
+                gl_library().glDepthMask(int(self.state.depth_write))
+                bound[0] = into
             for unit, (name, sampled) in enumerate(zip(self.samplers, textures, strict=True)):
                 bind(ctx, sampled, unit)
                 set_uniform(self.program, name, unit)
