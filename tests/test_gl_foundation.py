@@ -224,6 +224,13 @@ def test_a_uniform_no_shader_declares_raises_in_strict_mode(gl, monkeypatch):
         normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
     monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "0")
     normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
+    # Skipped names are remembered per program, but only those some shader declares: the
+    # misspelt one is checked again, and raises again once the check is back on.
+    monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "1")
+    with pytest.raises(ShaderError, match="u_map_sise"):
+        normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_size": (4, 4)})
+    assert "u_map_size" in normals.program.extra.absent
     release(fbo, target)
 
 

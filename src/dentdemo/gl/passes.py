@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import moderngl
 
 from dentdemo.gl.library import gl_library
-from dentdemo.gl.shaders import set_uniform
+from dentdemo.gl.shaders import set_uniform, set_uniforms
 
 GL_CLIP_DISTANCE0 = 0x3000
 #: Clip distances a pass may enable (GL 3.3 guarantees at least 8).
@@ -210,8 +210,8 @@ class Pass:
             for unit, (name, sampled) in enumerate(zip(self.samplers, textures, strict=True)):
                 bind(ctx, sampled, unit)
                 set_uniform(self.program, name, unit)
-            for name, value in (uniforms or {}).items():
-                set_uniform(self.program, name, value, self.selectors)
+            if uniforms:
+                set_uniforms(self.program, uniforms, self.selectors)
             ctx.viewport = viewport
             draw(self.program)
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import functools
 import os
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -214,6 +215,8 @@ class _Declared:
 
     files: str
     last: dict[str, object] = field(default_factory=dict)
+    #: Names written to the program that it lacks (its variant dropped them): skipped after.
+    absent: set[str] = field(default_factory=set)
 
 
 #: Values compared with the last one set (others, such as numpy arrays, are always set).
@@ -238,6 +241,25 @@ def strict_uniforms() -> bool:
     return os.environ.get("DENTDEMO_STRICT_UNIFORMS") == "1"
 
 
+def set_uniforms(
+    prog: moderngl.Program, uniforms: Mapping[str, object], selectors: frozenset[str] = frozenset()
+) -> None:
+    """`set_uniform` of each item, the names the program lacks and the values it already holds
+    skipped here without a call (a batch's draws share most of their uniforms)."""
+    declared = prog.extra if isinstance(prog.extra, _Declared) else None
+    if declared is None:
+        for name, value in uniforms.items():
+            set_uniform(prog, name, value, selectors)
+        return
+    absent, last = declared.absent, declared.last
+    for name, value in uniforms.items():
+        if name in absent:
+            continue
+        if isinstance(value, _COMPARABLE) and last.get(name, _UNSET) == value:
+            continue
+        set_uniform(prog, name, value, selectors)
+
+
 def set_uniform(
     prog: moderngl.Program, name: str, value: object, selectors: frozenset[str] = frozenset()
 ) -> None:
@@ -253,9 +275,12 @@ def set_uniform(
         return  # already so: a batch's draws share most of their uniforms
     member = prog.get(name, None)  # a dict look-up; `name in prog` walks every member
     if member is None:
-        if name not in selectors and name not in library_uniforms() and strict_uniforms():
+        known = name in selectors or name in library_uniforms()
+        if not known and strict_uniforms():
             files = declared.files if declared is not None else "a program"
             raise ShaderError(f"{files}: no shader declares a uniform named '{name}'")
+        if known and declared is not None:  # an unknown name is checked again each time
+            declared.absent.add(name)
         return
     if not isinstance(member, moderngl.Uniform):
         return
