@@ -165,6 +165,15 @@ class _Scratch:
         return placed, (x, y, shelf)
 
 
+def _texel_draws(job: CarveJob) -> Iterator[tuple[int, Callable[[moderngl.Program], None]]]:
+    """Passes 4 and 5's draws of `job`'s target: (gutter, draw) for its triangles in the
+    footprint (GUTTER 0) and those of them on a chart border (GUTTER 1), where there are any."""
+    cam = job.camera
+    for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
+        if len(triangles):
+            yield gutter, job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
+
+
 def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     """Whether any vertex normal of the triangles pass 4 draws (or a swept solid's surface) is
     not the press direction reversed, to float rounding."""
@@ -466,17 +475,16 @@ class Carver:
     def _normal_passes(self, jobs: list[CarveJob]) -> None:
         """Pass 5 of `jobs` (sorted by the map they dent; as `rebuild_normals` does one
         camera's): the state applied once per variant, each map's framebuffer bound once."""
-        items: dict[int, list[tuple]] = {0: [], 1: []}
+        variants: dict[tuple, list[tuple]] = {}
         for job in jobs:
             cam, maps = job.camera, job.target.maps
             uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
-            for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
-                if len(triangles):
-                    draw = job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
-                    items[gutter].append((maps, draw, (maps.height, maps.mask), uniforms))
-        for gutter, drawn in items.items():
-            if drawn:
-                self._texture_space(self._texel["normals", gutter, False], drawn, "normal_fbo")
+            for gutter, draw in _texel_draws(job):
+                variants.setdefault(("normals", gutter, False), []).append(
+                    (maps.normal_fbo, maps.size, draw, (maps.height, maps.mask), uniforms)
+                )
+        for key, items in variants.items():
+            self._texture_space(self._texel[key], items)
 
     # -- pass 4 --------------------------------------------------------------------------------
     def _gather_passes(self, jobs: list[CarveJob]) -> None:
@@ -495,18 +503,16 @@ class Carver:
             }
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
-            for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
-                if len(triangles) == 0:
-                    continue
-                draw = job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
+            for gutter, draw in _texel_draws(job):
                 key = ("gather", gutter, bool(uniforms["u_swept"]), job.oblique, job.convex)
-                variants.setdefault(key, []).append((maps, draw, textures, uniforms))
+                item = (maps.height_fbo, maps.size, draw, textures, uniforms)
+                variants.setdefault(key, []).append(item)
         for key, items in variants.items():
-            self._texture_space(self._texel[key], items, "height_fbo")
+            self._texture_space(self._texel[key], items)
 
-    def _texture_space(self, pass_: Pass, items: list[tuple], target: str) -> None:
-        """`pass_` drawn over `items` (maps, draw, textures, uniforms) in order, each into its
-        maps' framebuffer `target` ("height_fbo" or "normal_fbo") over the whole map."""
-        with pass_.batch(self.gl.ctx, getattr(items[0][0], target)) as one:
-            for maps, draw, textures, uniforms in items:
-                one((0, 0, *maps.size), draw, textures, uniforms, into=getattr(maps, target))
+    def _texture_space(self, pass_: Pass, items: list[tuple]) -> None:
+        """`pass_` drawn over `items` (framebuffer, map size, draw, textures, uniforms) in order,
+        each over the whole of its framebuffer's map."""
+        with pass_.batch(self.gl.ctx, items[0][0]) as one:
+            for fbo, size, draw, textures, uniforms in items:
+                one((0, 0, *size), draw, textures, uniforms, into=fbo)

@@ -25,6 +25,7 @@ from dentdemo.carve.constants import (
     NO_SURFACE,
     TOOL_SUBPIXELS,
 )
+from dentdemo.carve.linear import column_scale
 from dentdemo.carve.texel_passes import swept_uniforms
 from dentdemo.gl.context import GLContext
 from dentdemo.mesh.thickness import vertex_thickness
@@ -335,7 +336,7 @@ def footprint_texels(
     world = mesh.positions.astype(np.float64)[tri] @ model[:3, :3].T + model[:3, 3]
     normal_matrix = np.linalg.inv(model[:3, :3]).T
     vnormal = mesh.normals.astype(np.float64)[tri] @ normal_matrix.T
-    scale = float(np.sqrt((model[:3, :3] ** 2).sum(axis=0).max()))  # rotation times a scale
+    scale = column_scale(model[:3, :3])  # rotation times a scale
     vthick = vertex_thickness(mesh, tri.ravel()).astype(np.float64).reshape(tri.shape) * scale
     lo = np.floor(uv.min(axis=1)).astype(np.int64) - 1
     hi = np.ceil(uv.max(axis=1)).astype(np.int64) + 1

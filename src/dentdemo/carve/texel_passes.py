@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera
 from dentdemo.carve.constants import shader_defines
-from dentdemo.carve.linear import inverse3
+from dentdemo.carve.linear import column_scale, inverse3
 from dentdemo.gl.context import GLContext
 from dentdemo.gl.passes import MIN_BLEND, Pass, PassState
 from dentdemo.gl.shaders import program
@@ -137,7 +137,7 @@ def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
     m = np.asarray(model, dtype=np.float64)
     ends = bound.segment @ m[:3, :3].T + m[:3, 3]
     # The solid's radius scales with the pose's largest column (a rotation times a scale).
-    scale = float(np.sqrt((m[:3, :3] ** 2).sum(axis=0).max()))
+    scale = column_scale(m[:3, :3])
     uniforms: dict[str, object] = {
         "u_swept": True,
         "u_swept_a": tuple(ends[0]),

@@ -67,10 +67,11 @@ def triangle_boxes(
     (x0, y0, x1, y1), half-open, texels; empty boxes dropped."""
     if len(triangles) == 0:
         return np.zeros((0, 4), np.int64)
-    bounds = mesh.triangle_uv_bounds()[np.asarray(triangles)] * (size * 2)  # (n, 4) texels
+    limit = np.tile(np.asarray(size, dtype=np.float64), 2)  # (columns, rows, columns, rows)
+    bounds = mesh.triangle_uv_bounds()[np.asarray(triangles)] * limit  # (n, 4) texels
     bounds[:, :2] = np.floor(bounds[:, :2]) - MARGIN
     bounds[:, 2:] = np.ceil(bounds[:, 2:]) + MARGIN
-    boxes = np.clip(bounds, 0, size * 2).astype(np.int64)
+    boxes = np.clip(bounds, 0, limit).astype(np.int64)
     return boxes[(boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])]
 
 

@@ -211,9 +211,9 @@ class Mesh:
     def prepare_queries(self) -> None:
         """Build now the cached structures pass 1 and the undo log query (corners, bounding
         spheres, clusters, uv derivatives and bounds, chart borders, closedness), as a body is
-        made: otherwise each body
-        builds them at its first hit, which then costs about 2 ms more for a 1 700-triangle
-        ball on the development VM (a sandbox drop's first hits are mostly first hits)."""
+        made: otherwise each body builds them at its first hit, which then costs about 2 ms
+        more for a 1 728-triangle ball on the development VM (a sandbox drop's first hits are
+        mostly first hits)."""
         self.corner_array()
         self.face_normals()
         self.triangle_uv_bounds()
