@@ -10,12 +10,12 @@ single hit of a batch cannot be taken back alone). The log keeps at most `depth`
 `budget` bytes of texels, dropping the oldest.
 
 Where a map's rectangles come from: passes 4 and 5 draw only the triangles `camera.target_texels`
-and `camera.target_gutter` in texture space; the first write texel centres inside those triangles,
-the gutter draws (texel.geom) each triangle's texel bounding box grown by one texel. So every
-texel a job writes lies inside its triangles' uv bounding boxes grown by `MARGIN` texels; the
-boxes of all jobs on one map are merged into a few rectangles (split where `GAP` texels or more
-of rows or columns hold no box, so that a dent across two far charts of an atlas keeps two small
-rectangles).
+and `camera.target_gutter` (a subset of the first) in texture space; the first write texel centres
+inside those triangles, the gutter draws (texel.geom) each triangle's texel bounding box grown by
+one texel. So every texel a job writes lies inside its triangles' uv bounding boxes grown by
+`MARGIN` texels; the boxes of all jobs on one map are merged into a few rectangles (split where
+`GAP` texels or more of rows or columns hold no box, so that a dent across two far charts of an
+atlas keeps two small rectangles).
 """
 
 from __future__ import annotations
@@ -106,8 +106,8 @@ def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
     for job in jobs:
         maps = job.target.maps
         mesh = job.target.gpu_mesh.mesh
-        triangles = np.concatenate([job.camera.target_texels, job.camera.target_gutter])
-        boxes = triangle_boxes(mesh, triangles.astype(np.int64), maps.size)
+        # The gutter's triangles are among the texels' (`collision_camera`): so are their boxes.
+        boxes = triangle_boxes(mesh, job.camera.target_texels.astype(np.int64), maps.size)
         by_maps.setdefault(id(maps), (maps, []))[1].append(boxes)
     return [(maps, merged_rects(np.concatenate(boxes))) for maps, boxes in by_maps.values()]
 
