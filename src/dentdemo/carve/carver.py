@@ -30,7 +30,7 @@ from dentdemo.carve.texel_passes import (
     texture_space_passes,
 )
 from dentdemo.gl.context import GLContext, release
-from dentdemo.gl.passes import Blend, Pass, PassState
+from dentdemo.gl.passes import Blend, Pass, PassState, shared_batch
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
 
@@ -448,7 +448,8 @@ class Carver:
     def _camera_passes(self, name: str, fbo: moderngl.Framebuffer, jobs: list[CarveJob]) -> None:
         """Pass 2 ("address": each job's target) or 3 ("peel": its tool) drawn by each job's
         collision camera into its tile of `fbo` (cleared by the batch), sampling the body's own
-        height map (pass 2 also pass 3's result); the state is applied once per variant."""
+        height map (pass 2 also pass 3's result); the state is applied once, each variant's
+        draws together."""
         inputs = (self.scratch.tool_depth,) if name == "address" else ()
         variants: dict[tuple, list[tuple]] = {}
         for job in jobs:
@@ -460,10 +461,10 @@ class Carver:
             draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
             item = (job.viewport, draw, (body.maps.height, *inputs), uniforms)
             variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)
-        for variant, items in variants.items():
-            with self._surface[variant].batch(self.gl.ctx, fbo) as one:
+        with shared_batch(self.gl.ctx, fbo, _SURFACE_PASSES[name][0]) as one:
+            for variant, items in variants.items():
                 for item in items:
-                    one(*item)
+                    one(self._surface[variant], *item)
 
     def _draw_quad(self, prog: moderngl.Program) -> None:
         """quad.vert's four corners (no vertex data)."""
@@ -474,23 +475,23 @@ class Carver:
     # -- pass 5 --------------------------------------------------------------------------------
     def _normal_passes(self, jobs: list[CarveJob]) -> None:
         """Pass 5 of `jobs` (sorted by the map they dent; as `rebuild_normals` does one
-        camera's): the state applied once per variant, each map's framebuffer bound once."""
-        variants: dict[tuple, list[tuple]] = {}
+        camera's): the state applied once, each map's framebuffer bound once."""
+        items: list[tuple] = []
         for job in jobs:
             cam, maps = job.camera, job.target.maps
             uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
             for gutter, draw in _texel_draws(job):
-                variants.setdefault(("normals", gutter, False), []).append(
-                    (maps.normal_fbo, maps.size, draw, (maps.height, maps.mask), uniforms)
+                pass_ = self._texel["normals", gutter, False]
+                items.append(
+                    (pass_, maps.normal_fbo, maps.size, draw, (maps.height, maps.mask), uniforms)
                 )
-        for key, items in variants.items():
-            self._texture_space(self._texel[key], items)
+        self._texture_space(items)
 
     # -- pass 4 --------------------------------------------------------------------------------
     def _gather_passes(self, jobs: list[CarveJob]) -> None:
-        """Pass 4 of `jobs` (sorted by the map they dent): the state applied once per variant,
-        each map's framebuffer bound once in it."""
-        variants: dict[tuple, list[tuple]] = {}
+        """Pass 4 of `jobs` (sorted by the map they dent): the state applied once (every variant
+        has the same), each map's framebuffer bound once."""
+        items: list[tuple] = []
         for job in jobs:
             cam, maps = job.camera, job.target.maps
             px, py = cam.pixel_metres
@@ -505,14 +506,18 @@ class Carver:
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
             for gutter, draw in _texel_draws(job):
                 key = ("gather", gutter, bool(uniforms["u_swept"]), job.oblique, job.convex)
-                item = (maps.height_fbo, maps.size, draw, textures, uniforms)
-                variants.setdefault(key, []).append(item)
-        for key, items in variants.items():
-            self._texture_space(self._texel[key], items)
+                items.append(
+                    (self._texel[key], maps.height_fbo, maps.size, draw, textures, uniforms)
+                )
+        self._texture_space(items)
 
-    def _texture_space(self, pass_: Pass, items: list[tuple]) -> None:
-        """`pass_` drawn over `items` (framebuffer, map size, draw, textures, uniforms) in order,
-        each over the whole of its framebuffer's map."""
-        with pass_.batch(self.gl.ctx, items[0][0]) as one:
-            for fbo, size, draw, textures, uniforms in items:
-                one((0, 0, *size), draw, textures, uniforms, into=fbo)
+    def _texture_space(self, items: list[tuple]) -> None:
+        """Passes of one state drawn over `items` (pass, framebuffer, map size, draw, textures,
+        uniforms) in order, each over the whole of its framebuffer's map. The draws into one
+        map's texels are disjoint (a chart draw keeps the texels in its chart, a gutter draw
+        those outside), so their order changes no texel."""
+        if not items:
+            return
+        with shared_batch(self.gl.ctx, items[0][1], items[0][0].state) as one:
+            for pass_, fbo, size, draw, textures, uniforms in items:
+                one(pass_, (0, 0, *size), draw, textures, uniforms, into=fbo)

@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import partial
 
 import moderngl
 
@@ -194,30 +195,51 @@ class Pass:
         `one(viewport, draw, textures, uniforms, into=None)`, each call as `run` with those
         arguments; `into` draws into another framebuffer (bound when it changes, the state
         kept: a pass over many maps)."""
-        bound = [fbo]
+        with shared_batch(ctx, fbo, self.state) as one:
+            yield partial(one, self)
 
-        def one(
-            viewport: tuple[int, int, int, int],
-            draw: Callable[[moderngl.Program], None],
-            textures: Sequence[Sampled] = (),
-            uniforms: Mapping[str, object] | None = None,
-            into: moderngl.Framebuffer | None = None,
-        ) -> None:
-            if into is not None and into is not bound[0]:
-                into.use()  # applies its own masks: the pass's depth mask again
-                gl_library().glDepthMask(int(self.state.depth_write))
-                bound[0] = into
-            for unit, (name, sampled) in enumerate(zip(self.samplers, textures, strict=True)):
-                bind(ctx, sampled, unit)
-                set_uniform(self.program, name, unit)
-            if uniforms:
-                set_uniforms(self.program, uniforms, self.selectors)
-            ctx.viewport = viewport
-            draw(self.program)
 
-        fbo.use()
-        with applied(ctx, self.state):
-            yield one
+#: One draw of a shared batch: `one(pass_, viewport, draw, textures, uniforms, into=None)`.
+SharedDraw = Callable[..., None]
+
+
+@contextmanager
+def shared_batch(
+    ctx: moderngl.Context, fbo: moderngl.Framebuffer, state: PassState
+) -> Iterator[SharedDraw]:
+    """Passes that share `state` (variants of one pass: programs built from one source with
+    other defines) run many times, the state applied once: yields `one(pass_, viewport, draw,
+    textures, uniforms, into=None)`, each call as `pass_.run` with those arguments into `fbo`,
+    or into `into` (bound when it changes). Drawing a map's variants one after the other binds
+    its framebuffer once, where a batch per variant would bind it once per variant."""
+    bound = [fbo]
+
+    def one(
+        pass_: Pass,
+        viewport: tuple[int, int, int, int],
+        draw: Callable[[moderngl.Program], None],
+        textures: Sequence[Sampled] = (),
+        uniforms: Mapping[str, object] | None = None,
+        into: moderngl.Framebuffer | None = None,
+    ) -> None:
+        if pass_.state is not state and pass_.state != state:
+            raise ValueError(f"pass {pass_.name!r} has other state than its shared batch")
+        if into is not None and into is not bound[0]:
+            into.use()  # applies its own masks: the pass's depth mask again
+            gl_library().glDepthMask(int(state.depth_write))
+            bound[0] = into
+        prog = pass_.program
+        for unit, (name, sampled) in enumerate(zip(pass_.samplers, textures, strict=True)):
+            bind(ctx, sampled, unit)
+            set_uniform(prog, name, unit)
+        if uniforms:
+            set_uniforms(prog, uniforms, pass_.selectors)
+        ctx.viewport = viewport
+        draw(prog)
+
+    fbo.use()
+    with applied(ctx, state):
+        yield one
 
 
 def bind(ctx: moderngl.Context, sampled: Sampled, unit: int) -> None:
