@@ -321,3 +321,40 @@ def test_a_convex_target_needs_no_address_map(gl, case):
             assert np.array_equal(n_all, n_convex)
     finally:
         bodies.release()
+
+
+def test_a_batch_binds_each_map_once_a_pass(gl, monkeypatch):
+    """Passes 4 and 5 of a batch draw every variant of a map (its chart triangles, then the
+    gutter around them) before moving to the next map: each dented map's height and normal
+    framebuffers are bound exactly once. Balls turned 45 degrees about z are pressed on a cube
+    edge of their atlas, so every ball job draws both variants (checked)."""
+    import moderngl
+
+    bodies = Bodies(gl)
+    carver = Carver(gl)
+    try:
+        plate, balls = _scene(bodies, 3)
+        presses = _presses(plate, balls, SPOTS[:3], [0.004] * 3)
+        for ball, (x, z) in zip(balls, SPOTS[:3], strict=True):
+            ball.model = translation((x, 0.04, z)) @ rotation((0, 0, 1), 45.0)
+        planned = [carver.plan(*press) for press in presses]
+        ball_jobs = [job for hit in planned for job in hit if job.target is not plate]
+        assert len(ball_jobs) == 3
+        assert all(len(job.camera.target_gutter) > 0 for job in ball_jobs)
+        bound: list[moderngl.Framebuffer] = []
+        use = moderngl.Framebuffer.use
+
+        def counting(fbo):
+            bound.append(fbo)
+            return use(fbo)
+
+        monkeypatch.setattr(moderngl.Framebuffer, "use", counting)
+        carver.carve_hits(planned)
+        monkeypatch.undo()
+        for body in (plate, *balls):
+            for fbo in (body.maps.height_fbo, body.maps.normal_fbo):
+                assert sum(b is fbo for b in bound) == 1
+        assert (heights(gl, balls[0]) < DENTED).sum() > 10  # the balls were dented
+    finally:
+        carver.release()
+        bodies.release()
