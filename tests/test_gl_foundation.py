@@ -247,3 +247,41 @@ def test_a_uniform_set_again_to_its_value_is_skipped_and_a_new_value_is_not(gl):
         writes.append(before != value)
         assert tuple(member.value) == value  # what GL holds, read back
     assert writes == [True, False, True, False, True]
+
+
+def test_a_shared_batch_draws_each_pass_with_its_program_and_refuses_other_state(gl):
+    """Two programs under one state in one shared batch each draw with their own program (a
+    full-screen triangle writing 0.25, then one writing 0.75 over its left half); a pass whose
+    state differs from the batch's is refused before it draws."""
+    from dentdemo.gl.passes import Pass, PassState, shared_batch
+
+    ctx = gl.ctx
+    vert = (
+        "#version 330 core\nvoid main() { vec2 p = vec2((gl_VertexID & 1) * 4 - 1,"
+        " (gl_VertexID >> 1) * 4 - 1); gl_Position = vec4(p, 0.0, 1.0); }"
+    )
+
+    def frag(value: float) -> str:
+        return f"#version 330 core\nout vec4 f;\nvoid main() {{ f = vec4({value}); }}"
+
+    state = PassState()
+    low = Pass("low", ctx.program(vertex_shader=vert, fragment_shader=frag(0.25)), state)
+    high = Pass("high", ctx.program(vertex_shader=vert, fragment_shader=frag(0.75)), state)
+    other = Pass("other", high.program, PassState(cull="back"))
+    target = ctx.texture((8, 4), 4, dtype="f4")
+    fbo = ctx.framebuffer([target])
+    vaos = {p.glo: ctx.vertex_array(p, []) for p in (low.program, high.program)}
+
+    def draw(prog):
+        vaos[prog.glo].render(moderngl.TRIANGLES, vertices=3)
+
+    try:
+        with shared_batch(ctx, fbo, state) as one:
+            one(low, (0, 0, 8, 4), draw)
+            one(high, (0, 0, 4, 4), draw)
+            with pytest.raises(ValueError, match="other"):
+                one(other, (0, 0, 8, 4), draw)
+        red = gl.read(target)[..., 0]  # rows, columns
+        assert np.all(red[:, :4] == 0.75) and np.all(red[:, 4:] == 0.25)
+    finally:
+        release(*vaos.values(), fbo, target, low.program, high.program)
