@@ -698,6 +698,7 @@ def flag_cases() -> list[Case]:
             ("--json", "afile"),
         ),
         ("bench_plot_is_folder", ["bench", "--tiny", "--plot", "sub"], ("--plot", "sub")),
+        ("bench_frames_zero", ["bench", "--tiny", "--frames", "0"], ("--frames", "0")),
         ("info_backend_vulkan", ["info", "--backend", "vulkan"], ("--backend", "vulkan")),
         ("materials_extra_argument", ["materials", "extra"], ("extra",)),
         ("fov_zero", [*RENDER, "--fov", "0"], ("--fov", "0")),

@@ -15,7 +15,9 @@ from dentdemo.carve.cpu_reference import CpuReference
 
 def test_bench_tiny_json_schema(tmp_path):
     out, plot = tmp_path / "bench.json", tmp_path / "bench.png"
-    result = dentdemo("bench", "--tiny", "--json", str(out), "--plot", str(plot), timeout=600)
+    result = dentdemo(
+        "bench", "--tiny", "--frames", "3", "--json", str(out), "--plot", str(plot), timeout=600
+    )
     assert result.returncode == 0, result.stderr
     data = json.loads(out.read_text())
     assert {
@@ -58,8 +60,17 @@ def test_bench_tiny_json_schema(tmp_path):
         (0.5, 256),
     ]
     assert all(d["gpu_ms"] > 0 for d in data["same_dent"])
+    assert [frame["frames"] for frame in data["frames"]] == [3]  # --frames, not tiny's 4
     for frame in data["frames"]:
         assert {"bodies", "frame_ms", "physics_ms", "carve_ms", "render_ms"} <= set(frame)
+        # The carve over all timed frames, and per hit carved in them: a median frame's carve
+        # is at most the sum of the frames' (none is negative), and the ratio is the quotient.
+        assert frame["hits"] >= 0 and frame["carve_ms_total"] >= frame["carve_ms"] >= 0
+        if frame["hits"]:
+            per_hit = frame["carve_ms_total"] / frame["hits"]
+            assert frame["carve_ms_per_hit"] == pytest.approx(per_hit, rel=1e-12)
+        else:
+            assert frame["carve_ms_per_hit"] is None
     assert data["memory"]["bytes_per_texel"] == 9
     assert data["agreement"]["max_abs_diff_m"] < 1e-5
     assert plot.stat().st_size > 0

@@ -306,7 +306,8 @@ def frame_times(
     tick: Callable[[], object] = lambda: None,
 ) -> list[dict]:
     """Sandbox frames through the frame loop (physics step, carves, render at `size`) with N
-    bodies dropped on plates; each phase ends with glFinish so that its time is its own."""
+    bodies dropped on plates; each phase ends with glFinish so that its time is its own. Besides
+    the medians a frame: the carve's ms over all the frames and per hit carved in them."""
     from dentdemo.app.controller import DemoController
     from dentdemo.app.loop import FrameLoop, ImageBackend
 
@@ -316,7 +317,9 @@ def frame_times(
         app = DemoController(gl, scene, materials, size)
         drop_balls(app, count)
         loop = FrameLoop(app, ImageBackend(size, None), fixed_dt=True)
+        hits_before = app.sim.stats.hits
         timings = [loop.frame(measure=True) for _ in range(frames)]
+        hits = app.sim.stats.hits - hits_before
         physics = [t.physics_ms for t in timings]
         carve = [t.carve_ms for t in timings]
         render = [t.render_ms for t in timings]
@@ -330,7 +333,9 @@ def frame_times(
                 "physics_ms": statistics.median(physics),
                 "carve_ms": statistics.median(carve),
                 "render_ms": statistics.median(render),
-                "hits": app.sim.stats.hits,
+                "hits": hits,
+                "carve_ms_total": sum(carve),
+                "carve_ms_per_hit": sum(carve) / hits if hits else None,
             }
         )
         app.close()
@@ -403,9 +408,9 @@ def memory(gl: GLContext) -> dict:
     }
 
 
-def run_bench(mode: str, window: bool = False) -> dict:
+def run_bench(mode: str, window: bool = False, frames: int | None = None) -> dict:
     """The bench in `mode`; with `window`, the interactive window's frame rates too (a display
-    is needed: the caller checks)."""
+    is needed: the caller checks); `frames` replaces the mode's count of sandbox frames."""
     cfg = MODES[mode]
     win = cfg["window"]
     stages = 2 * len(cfg["sizes"]) + 1 + len(cfg["bodies"])
@@ -425,7 +430,7 @@ def run_bench(mode: str, window: bool = False) -> dict:
         bursts = burst(gl, cfg["sizes"], cfg["cpu_sizes"], cfg["reps"], tick)
         same = same_dent(gl, cfg["same_dent"], cfg["reps"])
         tick()
-        frames = frame_times(gl, cfg["bodies"], cfg["frames"], tick=tick)
+        sandbox = frame_times(gl, cfg["bodies"], frames or cfg["frames"], tick=tick)
         if bar is not None:
             bar.close()
         result = {
@@ -444,7 +449,7 @@ def run_bench(mode: str, window: bool = False) -> dict:
             "burst": bursts,
             "same_dent": same,
             "passes": passes,
-            "frames": frames,
+            "frames": sandbox,
             "window": windows,
             "memory": memory(gl),
             "agreement": agreement,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from dentdemo.cli.args import command
+from dentdemo.cli.args import command, int_in
 from dentdemo.errors import DentdemoError
 from dentdemo.extras import require_app
 from dentdemo.outputs import check_output_file, write_json
@@ -25,6 +25,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # the test suite's mode
     p.add_argument("--json", metavar="FILE", help="write the results as JSON")
     p.add_argument("--plot", metavar="PNG", help="plot cost per hit against map size")
+    p.add_argument(
+        "--frames",
+        type=int_in(1, 100000),
+        metavar="N",
+        help="sandbox frames timed per body count (default: the mode's; 120 or more separate "
+        "the carve per hit of two builds)",
+    )
     p.add_argument(
         "--window",
         action="store_true",
@@ -47,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     if args.window and not has_display():
         raise DentdemoError("--window: no display (DISPLAY is not set); run it under X or Xvfb")
     mode = "tiny" if args.tiny else ("quick" if args.quick else "full")
-    result = run_bench(mode, window=args.window)
+    result = run_bench(mode, window=args.window, frames=args.frames)
     print_table(result)
     if json_path is not None:
         write_json(json_path, result)
