@@ -12,7 +12,16 @@ import numpy as np
 import pytest
 
 import dentdemo
-from dentdemo.carve.undo import UNDO_BYTES, UNDO_DEPTH, UndoLog, merged_rects
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.undo import (
+    UNDO_BYTES,
+    UNDO_DEPTH,
+    UndoLog,
+    chart_boxes,
+    job_rects,
+    merged_rects,
+    triangle_boxes,
+)
 
 SIDE = 0.4  # plate side, m
 R = 0.05  # ball radius, m
@@ -340,3 +349,107 @@ def test_controller_undo_repair_and_load(gl, tmp_path):
 
 def _raw(gl, maps) -> tuple[bytes, bytes]:
     return gl.read(maps.height).tobytes(), gl.read(maps.normal).tobytes()
+
+
+def test_triangle_charts_are_the_atlas_islands():
+    """A ball's cube-sphere atlas has 6 charts (one per cube face), a box's 6, a plate's 1:
+    each triangle's chart is the lowest triangle index of its island, and two triangles that
+    share an edge (the same two vertices) share a chart; each chart is one connected island,
+    found here by a breadth-first walk over shared edges."""
+    for mesh, count in ((BALL, 6), (BOX, 6), (PLATE, 1)):
+        charts = mesh.triangle_charts()
+        tri = mesh.indices.tolist()
+        by_edge: dict[tuple[int, int], list[int]] = {}
+        for t, (a, b, c) in enumerate(tri):
+            for e in ((a, b), (b, c), (c, a)):
+                by_edge.setdefault((min(e), max(e)), []).append(t)
+        seen = [-1] * len(tri)
+        for start in range(len(tri)):
+            if seen[start] >= 0:
+                continue
+            seen[start], queue = start, [start]
+            while queue:
+                t = queue.pop()
+                a, b, c = tri[t]
+                for e in ((a, b), (b, c), (c, a)):
+                    for other in by_edge[(min(e), max(e))]:
+                        if seen[other] < 0:
+                            seen[other] = start
+                            queue.append(other)
+        assert charts.tolist() == seen
+        assert len(set(seen)) == count
+
+
+def test_chart_boxes_bound_each_charts_triangle_boxes():
+    """`chart_boxes` of random triangle sets of a ball's and a box's atlas is, chart by chart,
+    the bounding box of `triangle_boxes` over that chart's triangles (worked out here from the
+    boxes, grouped by `triangle_charts`); no triangles, no box."""
+    rng = np.random.default_rng(7)
+    for mesh, size in ((BALL, (64, 64)), (BOX, (256, 128))):
+        charts = mesh.triangle_charts()
+        for count in (1, 2, 17, len(mesh.indices)):
+            which = rng.choice(len(mesh.indices), count, replace=False)
+            want = []
+            for chart in sorted(set(charts[which].tolist())):
+                boxes = triangle_boxes(mesh, which[charts[which] == chart], size)
+                if len(boxes):
+                    want.append([*boxes[:, :2].min(axis=0), *boxes[:, 2:].max(axis=0)])
+            assert chart_boxes(mesh, which, size) == [tuple(box) for box in want]
+    assert chart_boxes(BALL, np.zeros(0, np.int64), (64, 64)) == []
+
+
+@pytest.mark.parametrize("spot", [(0.0, 0.0), (0.13, -0.07), (-0.2, 0.19)])
+def test_a_one_chart_press_snapshots_what_merging_its_boxes_gives(gl, spot):
+    """A ball pressed into a plate (one chart) and itself at its bottom (inside one face of its
+    atlas): each map's rectangle is exactly the one that merging every triangle's box gives
+    (`merged_rects(triangle_boxes(...))`, the rule the module states), here worked out from the
+    jobs' triangle lists."""
+    plate = dentdemo.DentableSurface(gl.ctx, PLATE, 128)
+    ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
+    carver = dentdemo.Carver(gl.ctx)
+    try:
+        x, z = spot
+        ball.model = np.eye(4)
+        ball.model[:3, 3] = (x, R, z)
+        live = carver._live()
+        jobs = live.plan(
+            plate._body("target"),
+            ball._body("tool"),
+            ContactFrame(np.array([x, 0.0, z]), np.array(DOWN)),
+            0.005,
+            0.002,
+        )
+        assert len(jobs) == 2
+        for job, (maps, rects) in zip(jobs, job_rects(jobs), strict=True):
+            assert maps is job.target.maps
+            boxes = triangle_boxes(job.target.gpu_mesh.mesh, job.camera.target_texels, maps.size)
+            assert rects == merged_rects(boxes) and len(rects) == 1
+    finally:
+        for thing in (carver, ball, plate):
+            thing.release()
+
+
+@pytest.mark.parametrize("corner", [False, True], ids=["edge", "corner"])
+def test_a_press_across_charts_snapshots_what_merging_its_boxes_gives(gl, corner):
+    """A ball pressed on a box's edge (two charts) or corner (three): the box's rectangles are
+    exactly those that merging every triangle's box gives, as for one chart."""
+    box = dentdemo.DentableSurface(gl.ctx, BOX, 256)
+    ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
+    carver = dentdemo.Carver(gl.ctx)
+    try:
+        point = np.array((0.1, 0.1, 0.1 if corner else 0.0))
+        d = -point / np.linalg.norm(point)
+        ball.model = np.eye(4)
+        ball.model[:3, 3] = point - d * R
+        jobs = carver._live().plan(
+            box._body("target"), ball._body("tool"), ContactFrame(point, d), 0.005, 0.0
+        )
+        (job,) = jobs
+        mesh = job.target.gpu_mesh.mesh
+        assert len(set(mesh.triangle_charts()[job.camera.target_texels].tolist())) == 2 + corner
+        ((maps, rects),) = job_rects(jobs)
+        boxes = triangle_boxes(mesh, job.camera.target_texels, maps.size)
+        assert sorted(rects) == sorted(merged_rects(boxes))
+    finally:
+        for thing in (carver, ball, box):
+            thing.release()

@@ -13,13 +13,17 @@ Where a map's rectangles come from: passes 4 and 5 draw only the triangles `came
 and `camera.target_gutter` (a subset of the first) in texture space; the first write texel centres
 inside those triangles, the gutter draws (texel.geom) each triangle's texel bounding box grown by
 one texel. So every texel a job writes lies inside its triangles' uv bounding boxes grown by
-`MARGIN` texels; the boxes of all jobs on one map are merged into a few rectangles (split where
-`GAP` texels or more of rows or columns hold no box, so that a dent across two far charts of an
-atlas keeps two small rectangles).
+`MARGIN` texels. Those boxes within one chart (`Mesh.triangle_charts`) give their bounding box
+(the footprint's triangles in a chart join edge to edge, so merging their boxes gives no other;
+a footprint that falls apart inside one chart gets the box around both parts), and the boxes of
+all jobs on one map are merged into a few rectangles (split where `GAP` texels or more of rows or
+columns hold no box, so that a dent across two far charts of an atlas keeps two small
+rectangles).
 """
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -52,6 +56,8 @@ GAP = 8
 
 #: A rectangle of a map: (x, y, width, height), texels; x along +u, y along +v (row 0 is v = 0).
 Rect = tuple[int, int, int, int]
+#: A box of texels: (x0, y0, x1, y1), half-open.
+Box = tuple[int, int, int, int]
 #: One copy: (read framebuffer, its lower-left texel, draw framebuffer, its lower-left texel,
 #: width, height).
 Copy = tuple[moderngl.Framebuffer, tuple[int, int], moderngl.Framebuffer, tuple[int, int], int, int]
@@ -67,49 +73,90 @@ def triangle_boxes(
     (x0, y0, x1, y1), half-open, texels; empty boxes dropped."""
     if len(triangles) == 0:
         return np.zeros((0, 4), np.int64)
-    limit = np.tile(np.asarray(size, dtype=np.float64), 2)  # (columns, rows, columns, rows)
-    bounds = mesh.triangle_uv_bounds()[np.asarray(triangles)] * limit  # (n, 4) texels
-    bounds[:, :2] = np.floor(bounds[:, :2]) - MARGIN
-    bounds[:, 2:] = np.ceil(bounds[:, 2:]) + MARGIN
-    boxes = np.clip(bounds, 0, limit).astype(np.int64)
-    return boxes[(boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])]
+    return _texel_boxes(mesh.triangle_uv_bounds()[np.asarray(triangles)], size)
 
 
-def merged_rects(boxes: NDArray[np.int64], gap: int = GAP) -> list[Rect]:
-    """Disjoint rectangles that together hold every box (x0, y0, x1, y1): the boxes split into
-    groups along a row or column band that no box touches and that is at least `gap` texels
-    wide (again within each group, rows first), each group's bounding box one rectangle."""
-    out: list[Rect] = []
-    if len(boxes):
-        _split(boxes, gap, out)
+def chart_boxes(mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int]) -> list[Box]:
+    """The bounding box of `triangle_boxes` of `triangles` within each chart they lie in
+    (`Mesh.triangle_charts`), worked out from their uv bounds by chart at once: (x0, y0, x1, y1),
+    half-open, texels, one per chart met, in the charts' order."""
+    if len(triangles) == 0:
+        return []
+    which = np.asarray(triangles)
+    bounds = mesh.triangle_uv_bounds()[which]
+    charts = mesh.triangle_charts()[which]
+    if charts.min() == charts.max():  # one chart (most presses)
+        parts = [[*bounds[:, :2].min(axis=0).tolist(), *bounds[:, 2:].max(axis=0).tolist()]]
+    else:
+        order = np.argsort(charts, kind="stable")
+        bounds, charts = bounds[order], charts[order]
+        starts = np.flatnonzero(np.concatenate([[True], charts[1:] != charts[:-1]]))
+        low = np.minimum.reduceat(bounds[:, :2], starts, axis=0)
+        high = np.maximum.reduceat(bounds[:, 2:], starts, axis=0)
+        parts = np.concatenate([low, high], axis=1).tolist()
+    w, h = size
+    out: list[Box] = []
+    for u0, v0, u1, v1 in parts:  # as _texel_boxes, on a few Python floats
+        x0 = min(max(math.floor(u0 * w) - MARGIN, 0), w)
+        y0 = min(max(math.floor(v0 * h) - MARGIN, 0), h)
+        x1 = min(max(math.ceil(u1 * w) + MARGIN, 0), w)
+        y1 = min(max(math.ceil(v1 * h) + MARGIN, 0), h)
+        if x1 > x0 and y1 > y0:
+            out.append((x0, y0, x1, y1))
     return out
 
 
-def _split(boxes: NDArray[np.int64], gap: int, out: list[Rect]) -> None:
+def _texel_boxes(bounds: NDArray[np.float64], size: tuple[int, int]) -> NDArray[np.int64]:
+    """uv boxes (u0, v0, u1, v1) as texel boxes grown by `MARGIN`, clamped to the map; empty
+    ones dropped (`chart_boxes` does the same on Python floats)."""
+    limit = np.tile(np.asarray(size, dtype=np.float64), 2)  # (columns, rows, columns, rows)
+    texels = bounds * limit
+    texels[:, :2] = np.floor(texels[:, :2]) - MARGIN
+    texels[:, 2:] = np.ceil(texels[:, 2:]) + MARGIN
+    boxes = np.clip(texels, 0, limit).astype(np.int64)
+    return boxes[(boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])]
+
+
+def merged_rects(boxes: NDArray[np.int64] | Sequence[Sequence[int]], gap: int = GAP) -> list[Rect]:
+    """Disjoint rectangles that together hold every box (x0, y0, x1, y1): the boxes split into
+    groups along a row or column band that no box touches and that is at least `gap` texels
+    wide (again within each group, rows first), each group's bounding box one rectangle. On
+    Python ints: a batch gives a few boxes a map (one a chart a job meets)."""
+    rows = boxes.tolist() if isinstance(boxes, np.ndarray) else boxes
+    out: list[Rect] = []
+    if len(rows):
+        _split([(int(a), int(b), int(c), int(d)) for a, b, c, d in rows], gap, out)
+    return out
+
+
+def _split(boxes: list[Box], gap: int, out: list[Rect]) -> None:
     for axis in (1, 0):  # along v (rows), then along u (columns)
-        lo, hi = boxes[:, axis], boxes[:, axis + 2]
-        order = np.argsort(lo, kind="stable")
-        reach = np.maximum.accumulate(hi[order])  # the farthest end of the boxes so far
-        breaks = np.flatnonzero(lo[order][1:] >= reach[:-1] + gap) + 1
-        if len(breaks):
-            for group in np.split(order, breaks):
-                _split(boxes[group], gap, out)
+        ordered = sorted(boxes, key=lambda box: box[axis])  # stable
+        groups: list[list[Box]] = [[ordered[0]]]
+        reach = ordered[0][axis + 2]  # the farthest end of the boxes so far
+        for box in ordered[1:]:
+            if box[axis] >= reach + gap:
+                groups.append([])
+            groups[-1].append(box)
+            reach = max(reach, box[axis + 2])
+        if len(groups) > 1:
+            for group in groups:
+                _split(group, gap, out)
             return
-    x0, y0 = boxes[:, :2].min(axis=0)
-    x1, y1 = boxes[:, 2:].max(axis=0)
-    out.append((int(x0), int(y0), int(x1 - x0), int(y1 - y0)))
+    x0, y0 = min(b[0] for b in boxes), min(b[1] for b in boxes)
+    x1, y1 = max(b[2] for b in boxes), max(b[3] for b in boxes)
+    out.append((x0, y0, x1 - x0, y1 - y0))
 
 
 def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
     """The maps the jobs write and, for each, the rectangles holding every texel written."""
-    by_maps: dict[int, tuple[SurfaceMaps, list[NDArray[np.int64]]]] = {}
+    by_maps: dict[int, tuple[SurfaceMaps, list[Box]]] = {}
     for job in jobs:
         maps = job.target.maps
-        mesh = job.target.gpu_mesh.mesh
         # The gutter's triangles are among the texels' (`collision_camera`): so are their boxes.
-        boxes = triangle_boxes(mesh, job.camera.target_texels.astype(np.int64), maps.size)
-        by_maps.setdefault(id(maps), (maps, []))[1].append(boxes)
-    return [(maps, merged_rects(np.concatenate(boxes))) for maps, boxes in by_maps.values()]
+        boxes = chart_boxes(job.target.gpu_mesh.mesh, job.camera.target_texels, maps.size)
+        by_maps.setdefault(id(maps), (maps, []))[1].extend(boxes)
+    return [(maps, merged_rects(found)) for maps, found in by_maps.values()]
 
 
 @dataclass

@@ -187,6 +187,35 @@ class Mesh:
         self._border_cache = cached
         return cached
 
+    def triangle_charts(self) -> NDArray[np.int64]:
+        """(m,) the UV chart of each triangle: triangles that share an edge (the same two
+        vertices: seams split vertices) are in one chart, labelled by its lowest triangle index.
+        Cached."""
+        cached = getattr(self, "_chart_cache", None)
+        if cached is not None and len(cached) == len(self.indices):
+            return cached
+        tri = self.indices.astype(np.int64)
+        a = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])
+        b = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])
+        key = np.minimum(a, b) * len(self.positions) + np.maximum(a, b)  # one int per edge
+        owner = np.tile(np.arange(len(tri)), 3)
+        order = np.argsort(key, kind="stable")
+        key, owner = key[order], owner[order]
+        shared = key[1:] == key[:-1]
+        first, second = owner[:-1][shared], owner[1:][shared]  # triangles across an edge
+        label = np.arange(len(tri))
+        while True:  # each triangle takes the lowest label across its edges, then its label's
+            low = np.minimum(label[first], label[second])
+            new = label.copy()
+            np.minimum.at(new, first, low)
+            np.minimum.at(new, second, low)
+            new = new[new[new]]  # (pointer jumping: a chart's labels meet in a few rounds)
+            if np.array_equal(new, label):
+                break
+            label = new
+        self._chart_cache = label
+        return label
+
     def clusters(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
         """Spatially coherent groups of CLUSTER_SIZE triangles (cached): bounding-sphere centres
         (k, 3) and radii (k,), local metres, and members (k, CLUSTER_SIZE) as triangle indices,
@@ -210,10 +239,10 @@ class Mesh:
 
     def prepare_queries(self) -> None:
         """Build now the cached structures pass 1 and the undo log query (corners, bounding
-        spheres, clusters, uv derivatives and bounds, chart borders, closedness), as a body is
-        made: otherwise each body builds them at its first hit, which then costs about 2 ms
-        more for a 1 728-triangle ball on the development VM (a sandbox drop's first hits are
-        mostly first hits)."""
+        spheres, clusters, uv derivatives and bounds, chart borders and charts, closedness), as
+        a body is made: otherwise each body builds them at its first hit, which then costs about
+        2 ms more for a 1 728-triangle ball on the development VM (a sandbox drop's first hits
+        are mostly first hits)."""
         self.corner_array()
         self.face_normals()
         self.triangle_uv_bounds()
@@ -222,6 +251,7 @@ class Mesh:
         self.shared_normal()
         self.triangle_derivatives()
         self.chart_border()
+        self.triangle_charts()
         self.encloses_volume()
 
     def cluster_members_spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
