@@ -285,3 +285,34 @@ def test_a_shared_batch_draws_each_pass_with_its_program_and_refuses_other_state
         assert np.all(red[:, :4] == 0.75) and np.all(red[:, 4:] == 0.25)
     finally:
         release(*vaos.values(), fbo, target, low.program, high.program)
+
+
+def test_set_uniforms_writes_each_kind_of_uniform_every_time_it_changes(gl):
+    """set_uniforms on a library program (its writers cached after the first write of each
+    name) writes floats, vectors, integer vectors, booleans and column-major matrices: read back
+    from GL after each of three rounds of new values, every uniform holds what was set last."""
+    from dentdemo.carve.constants import shader_defines
+    from dentdemo.gl.shaders import ShaderLibrary, set_uniforms
+
+    defines = shader_defines(GUTTER=1)  # the gutter variant: u_map_size is an ivec2
+    prog = ShaderLibrary().program(
+        gl.ctx, "carve/texel.vert", "carve/normals.frag", "carve/texel.geom", defines=defines
+    )
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        model = rng.normal(size=(4, 4))
+        values = {
+            "u_eye": tuple(rng.normal(size=3)),
+            "u_clip_half": tuple(rng.uniform(0.1, 1.0, size=2)),
+            "u_map_size": tuple(int(v) for v in rng.integers(1, 500, size=2)),
+            "u_clip": bool(rng.integers(0, 2)),
+            "u_model": model.T.astype("f4").tobytes(),  # column-major
+        }
+        set_uniforms(prog, values)
+        assert prog["u_eye"].value == pytest.approx(values["u_eye"], rel=1e-6)
+        assert prog["u_clip_half"].value == pytest.approx(values["u_clip_half"], rel=1e-6)
+        assert prog["u_map_size"].value == values["u_map_size"]
+        assert bool(prog["u_clip"].value) == values["u_clip"]
+        read = np.frombuffer(prog["u_model"].read(), "f4").reshape(4, 4).T
+        assert np.array_equal(read, model.astype("f4"))
+    prog.release()

@@ -7,9 +7,11 @@ from __future__ import annotations
 import functools
 import os
 import re
-from collections.abc import Mapping
+import struct
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import moderngl
 
@@ -217,6 +219,8 @@ class _Declared:
     last: dict[str, object] = field(default_factory=dict)
     #: Names written to the program that it lacks (its variant dropped them): skipped after.
     absent: set[str] = field(default_factory=set)
+    #: Per uniform set once: a function that writes a value of it (`_writer`).
+    writers: dict[str, Callable[[object], None]] = field(default_factory=dict)
 
 
 #: Values compared with the last one set (others, such as numpy arrays, are always set).
@@ -251,13 +255,55 @@ def set_uniforms(
         for name, value in uniforms.items():
             set_uniform(prog, name, value, selectors)
         return
-    absent, last = declared.absent, declared.last
+    absent, last, writers = declared.absent, declared.last, declared.writers
     for name, value in uniforms.items():
         if name in absent:
             continue
-        if isinstance(value, _COMPARABLE) and last.get(name, _UNSET) == value:
+        comparable = isinstance(value, _COMPARABLE)
+        if comparable and last.get(name, _UNSET) == value:
             continue
-        set_uniform(prog, name, value, selectors)
+        write = writers.get(name)
+        if write is None:  # the first time: looked up (and checked) by set_uniform
+            set_uniform(prog, name, value, selectors)
+            continue
+        write(value)
+        if comparable:
+            last[name] = value
+        else:
+            last.pop(name, None)
+
+
+def _writer(member: moderngl.Uniform) -> Callable[[object], None]:
+    """What `set_uniform` does to `member` for a value, in one call: bytes written as they are
+    (matrices, column-major float32), else packed by the uniform's format, and handed to the
+    context's uniform write that moderngl's `Uniform.value` ends in (moderngl 5.9 and later
+    keep its arguments on the member; others, and arrays, go through `value`)."""
+    parts = ("ctx", "program_obj", "location", "gl_type", "array_length", "element_size")
+    kept: dict[str, Any] = {
+        part: getattr(member, part, None) for part in (*parts, "fmt", "dimension")
+    }
+    if any(value is None for value in kept.values()) or kept["array_length"] != 1:
+
+        def through_value(value: object) -> None:
+            if isinstance(value, bytes):
+                member.write(value)
+            else:
+                member.value = value
+
+        return through_value
+    raw = functools.partial(kept["ctx"]._write_uniform, *(kept[part] for part in parts[1:]))
+    pack = struct.Struct(kept["fmt"]).pack
+    many = kept["dimension"] > 1
+
+    def write(value: object) -> None:
+        if isinstance(value, bytes):
+            raw(value)
+        elif many:
+            raw(pack(*value))  # type: ignore[misc]  # a vector: a sequence
+        else:
+            raw(pack(value))
+
+    return write
 
 
 def set_uniform(
@@ -284,7 +330,12 @@ def set_uniform(
         return
     if not isinstance(member, moderngl.Uniform):
         return
-    if isinstance(value, bytes):
+    if declared is not None:
+        write = declared.writers.get(name)
+        if write is None:
+            write = declared.writers[name] = _writer(member)
+        write(value)
+    elif isinstance(value, bytes):
         member.write(value)  # matrices, column-major float32
     else:
         member.value = value
