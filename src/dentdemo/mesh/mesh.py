@@ -177,15 +177,19 @@ class Mesh:
         cached = getattr(self, "_border_cache", None)
         if cached is not None and len(cached) == len(self.indices):
             return cached
-        tri = self.indices.astype(np.int64)
-        a = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])
-        b = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])
-        key = np.minimum(a, b) * len(self.positions) + np.maximum(a, b)  # one int per edge
-        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+        _, inverse, counts = np.unique(self._edge_keys(), return_inverse=True, return_counts=True)
         single = (counts[inverse] == 1).reshape(3, -1)
         cached = single.any(axis=0)
         self._border_cache = cached
         return cached
+
+    def _edge_keys(self) -> NDArray[np.int64]:
+        """(3 m,) one int per triangle edge, the same for both triangles of a shared edge (its
+        two vertex indices, lower first): edges 0-1 of every triangle, then 1-2, then 2-0."""
+        tri = self.indices.astype(np.int64)
+        a = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])
+        b = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])
+        return np.minimum(a, b) * len(self.positions) + np.maximum(a, b)
 
     def triangle_charts(self) -> NDArray[np.int64]:
         """(m,) the UV chart of each triangle: triangles that share an edge (the same two
@@ -194,16 +198,13 @@ class Mesh:
         cached = getattr(self, "_chart_cache", None)
         if cached is not None and len(cached) == len(self.indices):
             return cached
-        tri = self.indices.astype(np.int64)
-        a = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])
-        b = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])
-        key = np.minimum(a, b) * len(self.positions) + np.maximum(a, b)  # one int per edge
-        owner = np.tile(np.arange(len(tri)), 3)
+        key = self._edge_keys()
+        owner = np.tile(np.arange(len(self.indices)), 3)
         order = np.argsort(key, kind="stable")
         key, owner = key[order], owner[order]
         shared = key[1:] == key[:-1]
         first, second = owner[:-1][shared], owner[1:][shared]  # triangles across an edge
-        label = np.arange(len(tri))
+        label = np.arange(len(self.indices))
         while True:  # each triangle takes the lowest label across its edges, then its label's
             low = np.minimum(label[first], label[second])
             new = label.copy()
