@@ -5,6 +5,7 @@ the tests compare with are read back by the tests themselves, before each hit.""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import moderngl
@@ -20,7 +21,6 @@ from dentdemo.carve.undo import (
     chart_boxes,
     job_rects,
     merged_rects,
-    triangle_boxes,
 )
 
 SIDE = 0.4  # plate side, m
@@ -351,6 +351,23 @@ def _raw(gl, maps) -> tuple[bytes, bytes]:
     return gl.read(maps.height).tobytes(), gl.read(maps.normal).tobytes()
 
 
+def triangle_boxes(mesh, triangles, size) -> np.ndarray:
+    """Each triangle's texel bounding box grown by 2 (the gutter draw's texel and one for
+    rounding), clamped to the map: rows (x0, y0, x1, y1), half-open; one triangle at a time from
+    its corners' uv."""
+    w, h = size
+    rows = []
+    for t in np.asarray(triangles).tolist():
+        uv = mesh.uvs[mesh.indices[t]].astype(np.float64)
+        x0 = min(max(math.floor(uv[:, 0].min() * w) - 2, 0), w)
+        y0 = min(max(math.floor(uv[:, 1].min() * h) - 2, 0), h)
+        x1 = min(max(math.ceil(uv[:, 0].max() * w) + 2, 0), w)
+        y1 = min(max(math.ceil(uv[:, 1].max() * h) + 2, 0), h)
+        if x1 > x0 and y1 > y0:
+            rows.append((x0, y0, x1, y1))
+    return np.array(rows, np.int64).reshape(-1, 4)
+
+
 def test_triangle_charts_are_the_atlas_islands():
     """A ball's cube-sphere atlas has 6 charts (one per cube face), a box's 6, a plate's 1:
     each triangle's chart is the lowest triangle index of its island, and two triangles that
@@ -382,8 +399,8 @@ def test_triangle_charts_are_the_atlas_islands():
 
 def test_chart_boxes_bound_each_charts_triangle_boxes():
     """`chart_boxes` of random triangle sets of a ball's and a box's atlas is, chart by chart,
-    the bounding box of `triangle_boxes` over that chart's triangles (worked out here from the
-    boxes, grouped by `triangle_charts`); no triangles, no box."""
+    the bounding box of the triangles' texel boxes there (`triangle_boxes` above, one triangle at
+    a time, grouped by `triangle_charts`); no triangles, no box."""
     rng = np.random.default_rng(7)
     for mesh, size in ((BALL, (64, 64)), (BOX, (256, 128))):
         charts = mesh.triangle_charts()

@@ -66,20 +66,10 @@ _READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER, _FRAMEBUFFER = 0x8CA8, 0x8CA9, 0x8D40
 _COLOR_BUFFER_BIT, _NEAREST = 0x4000, 0x2600
 
 
-def triangle_boxes(
-    mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int]
-) -> NDArray[np.int64]:
-    """Each triangle's texel bounding box grown by `MARGIN`, clamped to the map: rows of
-    (x0, y0, x1, y1), half-open, texels; empty boxes dropped."""
-    if len(triangles) == 0:
-        return np.zeros((0, 4), np.int64)
-    return _texel_boxes(mesh.triangle_uv_bounds()[np.asarray(triangles)], size)
-
-
 def chart_boxes(mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int]) -> list[Box]:
-    """The bounding box of `triangle_boxes` of `triangles` within each chart they lie in
-    (`Mesh.triangle_charts`), worked out from their uv bounds by chart at once: (x0, y0, x1, y1),
-    half-open, texels, one per chart met, in the charts' order."""
+    """For each chart (`Mesh.triangle_charts`) that `triangles` meet, the bounding box of their
+    texel boxes there: each triangle's uv bounding box in texels, grown by `MARGIN`, clamped to
+    the map; (x0, y0, x1, y1), half-open, in the charts' order, none where it is empty."""
     if len(triangles) == 0:
         return []
     which = np.asarray(triangles)
@@ -96,7 +86,7 @@ def chart_boxes(mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int
         parts = np.concatenate([low, high], axis=1).tolist()
     w, h = size
     out: list[Box] = []
-    for u0, v0, u1, v1 in parts:  # as _texel_boxes, on a few Python floats
+    for u0, v0, u1, v1 in parts:  # a few: on Python floats
         x0 = min(max(math.floor(u0 * w) - MARGIN, 0), w)
         y0 = min(max(math.floor(v0 * h) - MARGIN, 0), h)
         x1 = min(max(math.ceil(u1 * w) + MARGIN, 0), w)
@@ -104,17 +94,6 @@ def chart_boxes(mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int
         if x1 > x0 and y1 > y0:
             out.append((x0, y0, x1, y1))
     return out
-
-
-def _texel_boxes(bounds: NDArray[np.float64], size: tuple[int, int]) -> NDArray[np.int64]:
-    """uv boxes (u0, v0, u1, v1) as texel boxes grown by `MARGIN`, clamped to the map; empty
-    ones dropped (`chart_boxes` does the same on Python floats)."""
-    limit = np.tile(np.asarray(size, dtype=np.float64), 2)  # (columns, rows, columns, rows)
-    texels = bounds * limit
-    texels[:, :2] = np.floor(texels[:, :2]) - MARGIN
-    texels[:, 2:] = np.ceil(texels[:, 2:]) + MARGIN
-    boxes = np.clip(texels, 0, limit).astype(np.int64)
-    return boxes[(boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])]
 
 
 def merged_rects(boxes: NDArray[np.int64] | Sequence[Sequence[int]], gap: int = GAP) -> list[Rect]:
