@@ -231,3 +231,37 @@ def test_load_mesh_names_a_bad_scale(tmp_path, scale):
         ArgumentError, match=f"m.obj: scale must be a positive finite number, got {scale!r}"
     ):
         load_mesh(path, scale)
+
+
+@pytest.mark.parametrize(
+    "child,said",
+    [
+        ("import os, signal\nos.kill(os.getpid(), signal.SIGSEGV)\n", "xatlas crashed (SIGSEGV)"),
+        ("raise RuntimeError('no charts fit')\n", "xatlas failed (RuntimeError: no charts fit)"),
+    ],
+    ids=["crash", "error"],
+)
+def test_an_atlas_that_crashes_or_fails_is_one_line_naming_the_mesh(
+    tmp_path, monkeypatch, child, said
+):
+    """xatlas runs in a process of its own: where it dies of a signal (as xatlas-python does on
+    some large meshes: jpcy/xatlas#151) or raises, loading a mesh that needs an atlas is one
+    ArgumentError that names the file, its triangle count and what happened, and this process
+    goes on; a stand-in script plays xatlas here. The real child re-atlases the same mesh."""
+    from dentdemo.mesh import loader
+
+    pos, faces, _ = _cube()
+    path = tmp_path / "needs_atlas.obj"
+    trimesh.Trimesh(pos, faces, process=False).export(path)  # no texture coordinates
+    stand_in = tmp_path / "child.py"
+    stand_in.write_text(child)
+    with monkeypatch.context() as patch:
+        patch.setattr(loader, "ATLAS_CHILD", stand_in)
+        with pytest.raises(ArgumentError) as caught:
+            _load_quietly(path)
+    message = str(caught.value)
+    assert "\n" not in message and str(path) in message and said in message
+    assert f"its {len(faces)} triangles" in message
+    mesh, said_warnings = _load_quietly(path)  # the real xatlas, in its own process
+    assert len(mesh.indices) == len(faces) and check_uvs(mesh.uvs, mesh.indices).ok
+    assert any("re-atlasing" in w for w in said_warnings)

@@ -7,7 +7,11 @@ import functools
 import io
 import json
 import math
+import signal
 import struct
+import subprocess
+import sys
+import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +29,8 @@ OVERLAP_GRID = 256
 #: Padding between xatlas charts, in texels of its packing resolution.
 ATLAS_PADDING = 4
 ATLAS_RESOLUTION = 1024
+#: The script that runs xatlas in a process of its own (`reatlas`).
+ATLAS_CHILD = Path(__file__).with_name("atlas_child.py")
 
 
 @dataclass(frozen=True)
@@ -94,26 +100,52 @@ def _overlap_fraction(uv: NDArray[np.float64], tris: NDArray[np.integer]) -> flo
     return float((counts > 1).sum() / covered) if covered else 0.0
 
 
+class AtlasFailure(Exception):
+    """xatlas failed or crashed on a mesh (the caller names the mesh)."""
+
+
 def reatlas(
     positions: NDArray, indices: NDArray, normals: NDArray, return_mapping: bool = False
 ) -> tuple:
     """New unique UVs from xatlas, with gutters between charts; returns (positions, normals, uvs,
-    indices) with vertices split along the new seams."""
-    import xatlas
-
-    atlas = xatlas.Atlas()
-    atlas.add_mesh(
-        positions.astype(np.float32), indices.astype(np.uint32), normals.astype(np.float32)
-    )
-    pack = xatlas.PackOptions()
-    pack.padding = ATLAS_PADDING
-    pack.resolution = ATLAS_RESOLUTION
-    pack.bilinear = True
-    atlas.generate(xatlas.ChartOptions(), pack)
-    vmapping, new_indices, uvs = atlas[0] if hasattr(atlas, "__getitem__") else atlas.get_mesh(0)
+    indices) with vertices split along the new seams. xatlas runs in a process of its own
+    (`atlas_child.py`): where it fails or crashes, AtlasFailure says how, and this process goes
+    on."""
+    with tempfile.TemporaryDirectory(prefix="dentdemo-atlas-") as folder:
+        source, target = Path(folder) / "in.npz", Path(folder) / "out.npz"
+        np.savez(
+            source,
+            positions=positions.astype(np.float32),
+            indices=indices.astype(np.uint32),
+            normals=normals.astype(np.float32),
+            padding=ATLAS_PADDING,
+            resolution=ATLAS_RESOLUTION,
+        )
+        run = subprocess.run(
+            [sys.executable, str(ATLAS_CHILD), str(source), str(target)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        if run.returncode != 0:
+            raise AtlasFailure(_failure(run.returncode, run.stderr))
+        with np.load(target) as out:
+            vmapping, new_indices, uvs = out["vmapping"], out["indices"], out["uvs"]
     if return_mapping:  # which input vertex each output vertex copies
         return positions[vmapping], normals[vmapping], uvs, new_indices, vmapping
     return positions[vmapping], normals[vmapping], uvs, new_indices
+
+
+def _failure(returncode: int, stderr: str) -> str:
+    """How the atlas process ended: the signal that killed it, or its last line of error."""
+    if returncode < 0:
+        try:
+            name = signal.Signals(-returncode).name
+        except ValueError:
+            name = f"signal {-returncode}"
+        return f"xatlas crashed ({name})"
+    lines = [line for line in stderr.strip().splitlines() if line.strip()]
+    return f"xatlas failed ({lines[-1].strip() if lines else f'exit status {returncode}'})"
 
 
 def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
@@ -398,9 +430,15 @@ def mesh_from_triangles(
         warnings.warn(
             f"{name}: texture coordinates are {report.describe()}; re-atlasing", stacklevel=2
         )
-        points, normals, new_coords, triangles, kept = reatlas(
-            points, triangles, normals, return_mapping=True
-        )
+        try:
+            points, normals, new_coords, triangles, kept = reatlas(
+                points, triangles, normals, return_mapping=True
+            )
+        except AtlasFailure as exc:
+            raise ArgumentError(
+                f"{name}: making texture coordinates for its {len(triangles)} triangles: {exc}; "
+                "give the mesh a unique UV atlas of its own"
+            ) from None
         if texture_uvs is not None:
             texture_uvs = texture_uvs[kept]
         coords = new_coords
