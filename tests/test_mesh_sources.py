@@ -265,3 +265,17 @@ def test_an_atlas_that_crashes_or_fails_is_one_line_naming_the_mesh(
     mesh, said_warnings = _load_quietly(path)  # the real xatlas, in its own process
     assert len(mesh.indices) == len(faces) and check_uvs(mesh.uvs, mesh.indices).ok
     assert any("re-atlasing" in w for w in said_warnings)
+
+
+def test_an_atlas_without_an_interpreter_to_run_it_is_one_line(tmp_path, monkeypatch):
+    """Where no Python can be started for xatlas's process (an embedded interpreter has no
+    `sys.executable` to run), loading a mesh that needs an atlas is one ArgumentError naming the
+    file, not an OSError from deep in the loader."""
+    pos, faces, _ = _cube()
+    path = tmp_path / "needs_atlas.obj"
+    trimesh.Trimesh(pos, faces, process=False).export(path)
+    monkeypatch.setattr(sys, "executable", str(tmp_path / "no-python-here"))
+    with pytest.raises(ArgumentError) as caught:
+        _load_quietly(path)
+    message = str(caught.value)
+    assert str(path) in message and "xatlas could not be started" in message

@@ -121,12 +121,15 @@ def reatlas(
             padding=ATLAS_PADDING,
             resolution=ATLAS_RESOLUTION,
         )
-        run = subprocess.run(
-            [sys.executable, str(ATLAS_CHILD), str(source), str(target)],
-            capture_output=True,
-            text=True,
-            check=False,
-        )
+        try:
+            run = subprocess.run(
+                [sys.executable, str(ATLAS_CHILD), str(source), str(target)],
+                capture_output=True,
+                text=True,
+                check=False,
+            )
+        except OSError as exc:  # no interpreter to start (an embedded Python)
+            raise AtlasFailure(f"xatlas could not be started ({exc})") from None
         if run.returncode != 0:
             raise AtlasFailure(_failure(run.returncode, run.stderr))
         with np.load(target) as out:
