@@ -267,10 +267,15 @@ def set_uniforms(
             set_uniform(prog, name, value, selectors)
             continue
         write(value)
-        if comparable:
-            last[name] = value
-        else:
-            last.pop(name, None)
+        _remember(last, name, value, comparable)
+
+
+def _remember(last: dict[str, object], name: str, value: object, comparable: bool) -> None:
+    """Keep `value` as the one `name` holds (a value that cannot be compared is forgotten)."""
+    if comparable:
+        last[name] = value
+    else:
+        last.pop(name, None)
 
 
 def _writer(member: moderngl.Uniform) -> Callable[[object], None]:
@@ -330,20 +335,14 @@ def set_uniform(
         return
     if not isinstance(member, moderngl.Uniform):
         return
-    if declared is not None:
-        write = declared.writers.get(name)
-        if write is None:
-            write = declared.writers[name] = _writer(member)
-        write(value)
-    elif isinstance(value, bytes):
-        member.write(value)  # matrices, column-major float32
-    else:
-        member.value = value
-    if declared is not None:
-        if comparable:
-            declared.last[name] = value
-        else:
-            declared.last.pop(name, None)
+    if declared is None:  # a program made elsewhere: nothing to keep
+        _writer(member)(value)
+        return
+    write = declared.writers.get(name)
+    if write is None:
+        write = declared.writers[name] = _writer(member)
+    write(value)
+    _remember(declared.last, name, value, comparable)
 
 
 _UNSET = object()

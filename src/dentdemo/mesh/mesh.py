@@ -177,19 +177,31 @@ class Mesh:
         cached = getattr(self, "_border_cache", None)
         if cached is not None and len(cached) == len(self.indices):
             return cached
-        _, inverse, counts = np.unique(self._edge_keys(), return_inverse=True, return_counts=True)
-        single = (counts[inverse] == 1).reshape(3, -1)
-        cached = single.any(axis=0)
+        order, same = self._sorted_edges()
+        alone = ~(np.concatenate([[False], same]) | np.concatenate([same, [False]]))
+        single = np.empty(len(order), dtype=bool)
+        single[order] = alone
+        cached = np.asarray(single.reshape(3, -1).any(axis=0))  # any of its three edges
         self._border_cache = cached
         return cached
 
-    def _edge_keys(self) -> NDArray[np.int64]:
-        """(3 m,) one int per triangle edge, the same for both triangles of a shared edge (its
-        two vertex indices, lower first): edges 0-1 of every triangle, then 1-2, then 2-0."""
+    def _sorted_edges(self) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+        """The triangles' edges sorted by their two vertices (stably; edge e of triangle t is
+        number e m + t: edges 0-1 of every triangle, then 1-2, then 2-0), and for each sorted
+        edge but the last whether the next is the same edge (shared by two triangles). Cached:
+        chart_border and triangle_charts both read it."""
+        cached = getattr(self, "_edge_cache", None)
+        if cached is not None and cached[0] == len(self.indices):
+            return cached[1], cached[2]
         tri = self.indices.astype(np.int64)
         a = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])
         b = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])
-        return np.minimum(a, b) * len(self.positions) + np.maximum(a, b)
+        key = np.minimum(a, b) * len(self.positions) + np.maximum(a, b)  # one int per edge
+        order = np.argsort(key, kind="stable")
+        key = key[order]
+        same = key[1:] == key[:-1]
+        self._edge_cache = (len(self.indices), order, same)
+        return order, same
 
     def triangle_charts(self) -> NDArray[np.int64]:
         """(m,) the UV chart of each triangle: triangles that share an edge (the same two
@@ -198,11 +210,8 @@ class Mesh:
         cached = getattr(self, "_chart_cache", None)
         if cached is not None and len(cached) == len(self.indices):
             return cached
-        key = self._edge_keys()
-        owner = np.tile(np.arange(len(self.indices)), 3)
-        order = np.argsort(key, kind="stable")
-        key, owner = key[order], owner[order]
-        shared = key[1:] == key[:-1]
+        order, shared = self._sorted_edges()
+        owner = order % len(self.indices)  # the triangle of each sorted edge
         first, second = owner[:-1][shared], owner[1:][shared]  # triangles across an edge
         label = np.arange(len(self.indices))
         while True:  # each triangle takes the lowest label across its edges, then its label's
