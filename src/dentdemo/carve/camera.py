@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.constants import MIN_COS, RING_TEXELS, SLAB_MARGIN_TEXELS
 from dentdemo.carve.footprint import Overlap, Projected, Rect, overlap
-from dentdemo.carve.linear import inverse3
+from dentdemo.carve.linear import column_scale, inverse3
 from dentdemo.mesh.mesh import Mesh
 
 Vec3 = NDArray[np.float64]
@@ -187,9 +187,12 @@ def collision_camera(
     texel = max(texel_u, texel_v)
     half_x, half_y = cols * pitch_x / 2.0, rows * pitch_y / 2.0
     view = Rect(cx - half_x, cx + half_x, cy - half_y, cy + half_y)
+    # A built-in sphere or capsule is dented at its texels' points on the smooth solid but
+    # clipped at their facet points, which lie up to its facet sag deeper (mesh.facet_sag).
+    sag = target.mesh.facet_sag() * column_scale(linear)
     gather = (
         bound.slab[0] - SLAB_MARGIN_TEXELS * texel,
-        bound.slab[1] + SLAB_MARGIN_TEXELS * texel,
+        bound.slab[1] + SLAB_MARGIN_TEXELS * texel + sag,
     )
     ring = RING_TEXELS * texel
     proud = max(target.max_height, 0.0) + max(tool.max_height, 0.0)

@@ -149,6 +149,48 @@ class Mesh:
             self._uv_bounds_cache = cached
         return cached
 
+    def facet_sag(self) -> float:
+        """How far (local metres) the facets lie inside the smooth solid of an exact `bound` (a
+        built-in sphere or capsule, whose vertices lie on it) at most; 0 for any other mesh.
+        The carve dents such a body's texels at their points moved onto the solid, but clips
+        them at their facet points: its slab grows by this (camera.py). Per triangle: about the
+        centre of a sphere or a capsule's end (every corner past that end), the distance of the
+        triangle's plane from it; across a capsule's side (every corner between the ends), the
+        distance of the nearest point of its cross-section, whose corners lie on the circle, the
+        middle of the longest chord; anything else, its longest edge (every point of the
+        triangle is within it of a corner). Cached."""
+        bound = self.bound
+        if bound is None or not bound.exact or bound.segment is None:
+            return 0.0
+        cached = getattr(self, "_sag_cache", None)
+        if cached is not None and cached[0] == len(self.indices):
+            return cached[1]
+        corners = self.corner_array()
+        a, b = (np.asarray(end, dtype=np.float64) for end in bound.segment)
+        r = bound.radius
+        length = float(np.linalg.norm(b - a))
+        edges = corners[:, [1, 2, 0]] - corners
+        sag = np.linalg.norm(edges, axis=2).max(axis=1)  # anything else
+        normals = self.face_normals()
+        unit = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+        eps = 1e-6 * max(r, length)  # the corners are float32
+        if length <= eps:
+            ends = [(np.ones(len(corners), dtype=bool), a)]
+        else:
+            axis = (b - a) / length
+            t = (corners - a) @ axis  # (m, 3) along the axis
+            ends = [((t <= eps).all(axis=1), a), ((t >= length - eps).all(axis=1), b)]
+            side = ((t >= -eps) & (t <= length + eps)).all(axis=1)
+            across = edges - (edges @ axis)[..., None] * axis  # chords in the cross-section
+            chord = np.linalg.norm(across[side], axis=2).max(axis=1)
+            sag[side] = r - np.sqrt(np.maximum(r * r - (chord / 2) ** 2, 0.0))
+        for past, centre in ends:
+            plane = np.abs(((corners[past, 0] - centre) * unit[past]).sum(axis=1))
+            sag[past] = r - plane
+        value = float(max(sag.max(initial=0.0), 0.0))
+        self._sag_cache = (len(self.indices), value)
+        return value
+
     def shared_normal(self) -> NDArray[np.float32] | None:
         """The normal every vertex has, where they all have the same one (a plate), else None
         (cached)."""
