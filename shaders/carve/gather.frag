@@ -13,9 +13,9 @@
 // height, so an identical press writes identical values; blending MIN keeps the deeper of old and
 // new (dents only deepen, presses are idempotent).
 #include "camera.glsl"
+#include "chart.glsl"
 #include "texel.glsl"
 #include "swept.glsl"
-#include "chart.glsl"
 
 #ifndef EXIT
 #define EXIT 1
@@ -118,6 +118,9 @@ float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float a0) {
 }
 
 void main() {
+#if RECT
+    if (!rect_triangle()) discard;  // no chart texel (the gutter draw has it)
+#endif
     vec3 face = texel_face_normal();
 #if GUTTER
     if ((chart_bits(ivec2(gl_FragCoord.xy)) & CHART_SELF) != 0u) discard;  // GUTTER 0 has it

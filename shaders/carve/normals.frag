@@ -5,8 +5,9 @@
 // leak into a chart. Differences per texel become slopes through the texel's metric (texel.glsl).
 // Gutter texels take the normal of the chart texel nearest to them on their triangle.
 #include "../include/common.glsl"
-#include "texel.glsl"
+#include "camera.glsl"
 #include "chart.glsl"
+#include "texel.glsl"
 
 uniform sampler2D u_height;  // R32F metres
 
@@ -23,6 +24,9 @@ float difference(ivec2 t, ivec2 step, bool lo_in, bool hi_in) {
 }
 
 void main() {
+#if RECT
+    if (!rect_triangle()) discard;  // no chart texel (the gutter draw has it)
+#endif
     vec3 metric = texel_metric();
     ivec2 size = textureSize(u_height, 0);
     ivec2 t = ivec2(gl_FragCoord.xy);

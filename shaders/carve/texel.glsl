@@ -1,10 +1,25 @@
 // Fragment side of texel.vert / texel.geom: the surface point, normal and texel metric of the
-// texel this fragment stands for. Needs GUTTER and GUTTER_REACH_TEXELS defined.
+// texel this fragment stands for. Needs GUTTER and GUTTER_REACH_TEXELS defined. RECT 1 (a built-in
+// sphere drawn as rectangles of texels, GUTTER 0): the triangle comes from cube_grid.glsl per
+// fragment (call rect_triangle() first) and is used as a gutter draw's is.
+#ifndef RECT
+#define RECT 0
+#endif
 #if GUTTER
 flat in vec2 t_uv[3];      // triangle corners, texel units
 flat in vec3 t_world[3];   // world metres
 flat in vec3 t_normal[3];  // world
 flat in float t_thickness[3];  // world metres
+#elif RECT
+vec2 t_uv[3];              // as above, written by rect_triangle()
+vec3 t_world[3];
+vec3 t_normal[3];
+float t_thickness[3];
+#define CLIP_IN_FRAGMENT 1
+#include "clip.glsl"
+#include "cube_grid.glsl"
+#endif
+#if GUTTER || RECT
 vec3 texel_weights;  // texel_surface's barycentric weights of the texel's point
 
 // Barycentric weights of the point of the triangle nearest to q (texel units); `dist` is the
@@ -40,8 +55,13 @@ bool texel_surface(out vec3 world, out vec3 normal, out ivec2 source) {
     texel_weights = b;
     world = b.x * t_world[0] + b.y * t_world[1] + b.z * t_world[2];
     normal = normalize(b.x * t_normal[0] + b.y * t_normal[1] + b.z * t_normal[2]);
+#if RECT  // the texel's centre lies on its own triangle (to rounding)
+    source = ivec2(gl_FragCoord.xy);
+    return inside_footprint(world);
+#else
     source = ivec2(floor(b.x * t_uv[0] + b.y * t_uv[1] + b.z * t_uv[2]));
     return dist <= GUTTER_REACH_TEXELS;
+#endif
 }
 
 // The body's thickness under the texel's point, world metres (after texel_surface).
@@ -67,7 +87,7 @@ bool texel_surface(out vec3 world, out vec3 normal, out ivec2 source) {
 // which the triangle is a front face, as the collision camera's passes cull it. Call it in uniform
 // control flow (before any discard): it may take screen-space derivatives.
 vec3 texel_face_normal() {
-#if GUTTER
+#if GUTTER || RECT
     return cross(t_world[1] - t_world[0], t_world[2] - t_world[0]);
 #else
     // The world edges are the uv edges through dP/du and dP/dv: e1 x e2 = det(uv edges) (dP/du x
@@ -82,7 +102,7 @@ vec3 texel_face_normal() {
 // along +v by b T + c B (T, B unit and perpendicular in the surface, B on the side of +v). Call it
 // in uniform control flow (before any discard): it may take screen-space derivatives.
 vec3 texel_metric() {
-#if GUTTER
+#if GUTTER || RECT
     vec2 d1 = t_uv[1] - t_uv[0], d2 = t_uv[2] - t_uv[0];
     vec3 e1 = t_world[1] - t_world[0], e2 = t_world[2] - t_world[0];
     float det = d1.x * d2.y - d1.y * d2.x;

@@ -20,15 +20,21 @@ from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defin
 from dentdemo.carve.linear import inverse3
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
+    CHART,
+    GUTTER,
+    RECT,
     VARIANT_KEYS,
     camera_uniforms,
     clip_uniforms,
+    cube_grid,
     is_swept,
     model_uniforms,
     quad_kind,
+    sphere_atlas_defines,
     swept_uniforms,
     texture_space_passes,
 )
+from dentdemo.carve.undo import chart_boxes
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.passes import Blend, Pass, PassState, shared_batch
 from dentdemo.gl.shaders import program
@@ -165,13 +171,25 @@ class _Scratch:
         return placed, (x, y, shelf)
 
 
-def _texel_draws(job: CarveJob) -> Iterator[tuple[int, Callable[[moderngl.Program], None]]]:
-    """Passes 4 and 5's draws of `job`'s target: (gutter, draw) for its triangles in the
-    footprint (GUTTER 0) and those of them on a chart border (GUTTER 1), where there are any."""
-    cam = job.camera
-    for gutter, triangles in ((0, cam.target_texels), (1, cam.target_gutter)):
-        if len(triangles):
-            yield gutter, job.target.gpu_mesh.drawer(triangles, f"texels{gutter}")
+def _texel_draws(
+    job: CarveJob, rects: bool, quad: Callable[[moderngl.Program], None]
+) -> Iterator[tuple[int, Callable[[moderngl.Program], None], dict[str, object] | None]]:
+    """Passes 4 and 5's draws of `job`'s target: (how it covers texels, draw, its own uniforms)
+    for its triangles in the footprint (CHART) and those of them on a chart border (GUTTER),
+    where there are any. With `rects`, a built-in sphere's chart texels are drawn instead as
+    one rectangle (`quad`, util/rect.vert) per chart the footprint's triangles meet, their
+    texel bounding box there (RECT)."""
+    cam, gpu_mesh = job.camera, job.target.gpu_mesh
+    if not len(cam.target_texels):
+        return
+    if rects and cube_grid(gpu_mesh.mesh):
+        size = job.target.maps.size
+        for x0, y0, x1, y1 in chart_boxes(gpu_mesh.mesh, cam.target_texels, size, margin=0):
+            yield RECT, quad, {"u_rect": (x0, y0, x1 - x0, y1 - y0), "u_viewport": size}
+    else:
+        yield CHART, gpu_mesh.drawer(cam.target_texels, "texels0"), None
+    if len(cam.target_gutter):
+        yield GUTTER, gpu_mesh.drawer(cam.target_gutter, "texels1"), None
 
 
 def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
@@ -191,24 +209,6 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     normals = local.astype(np.float64) @ inverse3(m)  # world, by rows
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
-
-
-def _sphere_atlas() -> dict[str, str]:
-    """The built-in sphere's atlas (mesh/primitives.py) as defines for sphere_uv.glsl, and its
-    gutter, which capsule_uv.glsl shares."""
-    from dentdemo.mesh.primitives import CUBE_FACES, GUTTER
-
-    def table(k: int) -> str:
-        return (
-            "vec3[6](" + ", ".join(f"vec3{tuple(float(x) for x in f[k])}" for f in CUBE_FACES) + ")"
-        )
-
-    return {
-        "CUBE_FACE_N": table(0),
-        "CUBE_FACE_A": table(1),
-        "CUBE_FACE_B": table(2),
-        "ATLAS_GUTTER": repr(float(GUTTER)),
-    }
 
 
 #: Pass 3's blend: the farthest back face and the coverage (red, green: MAX), the nearest front
@@ -237,7 +237,7 @@ class Carver:
         #: directions), or many small ones; a power of two each way (pass 4's sampling).
         width = 1 << (2 * max_resolution + 1).bit_length()
         self.scratch = _Scratch(gl.ctx, (width, width // 2))
-        atlas = _sphere_atlas()
+        atlas = sphere_atlas_defines()
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
         #: is a sphere or capsule drawn as one quad: QUAD 1, 2).
         self._surface = {
@@ -261,6 +261,10 @@ class Carver:
         #: Draw built-in spheres and capsules in passes 2 and 3 as one quad each (their facets
         #: when False: the tests compare the two).
         self.swept_quads = True
+        #: Draw a built-in sphere's chart texels in passes 4 and 5 as rectangles of texels, each
+        #: finding its facet from the sphere's atlas (its triangles when False: the tests
+        #: compare the two).
+        self.texel_rects = True
         self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
@@ -480,10 +484,11 @@ class Carver:
         for job in jobs:
             cam, maps = job.camera, job.target.maps
             uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
-            for gutter, draw in _texel_draws(job):
-                pass_ = self._texel["normals", gutter, False]
+            for kind, draw, own in _texel_draws(job, self.texel_rects, self._draw_quad):
+                pass_ = self._texel["normals", kind, False]
+                values = {**uniforms, **own} if own else uniforms
                 items.append(
-                    (pass_, maps.normal_fbo, maps.size, draw, (maps.height, maps.mask), uniforms)
+                    (pass_, maps.normal_fbo, maps.size, draw, (maps.height, maps.mask), values)
                 )
         self._texture_space(items)
 
@@ -504,11 +509,10 @@ class Carver:
             }
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
-            for gutter, draw in _texel_draws(job):
-                key = ("gather", gutter, bool(uniforms["u_swept"]), job.oblique, job.convex)
-                items.append(
-                    (self._texel[key], maps.height_fbo, maps.size, draw, textures, uniforms)
-                )
+            for kind, draw, own in _texel_draws(job, self.texel_rects, self._draw_quad):
+                key = ("gather", kind, bool(uniforms["u_swept"]), job.oblique, job.convex)
+                values = {**uniforms, **own} if own else uniforms
+                items.append((self._texel[key], maps.height_fbo, maps.size, draw, textures, values))
         self._texture_space(items)
 
     def _texture_space(self, items: list[tuple]) -> None:

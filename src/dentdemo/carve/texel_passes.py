@@ -25,12 +25,20 @@ _GATHER = PassState(blend=MIN_BLEND, clip_distances=CLIP_DISTANCES)
 _NORMALS = PassState(clip_distances=CLIP_DISTANCES)
 
 
+#: How a texture-space draw covers its texels (the second item of a pass's key): the chart
+#: texels of the footprint's triangles, the gutter texels around their chart borders
+#: (texel.geom), or a built-in sphere's chart texels in rectangles (util/rect.vert: the facet
+#: under each texel worked out from the sphere's atlas, cube_grid.glsl).
+CHART, GUTTER, RECT = 0, 1, 2
+
+
 def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
-    """Pass 4 by ("gather", gutter, swept, oblique, convex) and pass 5 by ("normals", gutter,
-    False): each as a chart draw (GUTTER 0) and a gutter draw (GUTTER 1); the gather also for a
-    swept solid's own surface (SWEPT 1), with or without the exit along each normal (EXIT), and
-    for a target that hides none of its own surface, without the address map (CONVEX; the
-    normal rebuild reads only the map, so it has none of these variants). Cached per context."""
+    """Pass 4 by ("gather", draw, swept, oblique, convex) and pass 5 by ("normals", draw, False),
+    `draw` one of CHART, GUTTER (GUTTER 1) and RECT (RECT 1); the gather also for a swept solid's
+    own surface (SWEPT 1), with or without the exit along each normal (EXIT), and for a target
+    that hides none of its own surface, without the address map (CONVEX; the normal rebuild
+    reads only the map, so it has none of these variants). RECT only for what a built-in sphere
+    uses: swept, oblique, convex. Cached per context."""
     key = "carve:texture-space-passes"
     if key in gl.cache:
         return gl.cache[key]
@@ -43,23 +51,50 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
         ("gather", _GATHER, gather, [*gathers, (True, True, True)]),
         ("normals", _NORMALS, ("u_height", "u_mask"), [(False,)]),
     )
-    for gutter in (0, 1):
-        geometry = "carve/texel.geom" if gutter else None
+    stages = {
+        CHART: ("carve/texel.vert", None),
+        GUTTER: ("carve/texel.vert", "carve/texel.geom"),
+        RECT: ("util/rect.vert", None),
+    }
+    for draw, (vertex, geometry) in stages.items():
         for name, state, samplers, variants in kinds:
             for variant in variants:
+                if draw == RECT and variant not in ((True, True, True), (False,)):
+                    continue
                 names = ("SWEPT", "EXIT", "CONVEX")[: len(variant)]
                 defines = {key: int(value) for key, value in zip(names, variant, strict=True)}
+                if draw == RECT:  # under the same state as the triangles' draws
+                    defines.update(RECT=1, CLIP_DISTANCES=CLIP_DISTANCES, **sphere_atlas_defines())
                 prog = program(
                     gl.cache,
                     gl.ctx,
-                    "carve/texel.vert",
+                    vertex,
                     f"carve/{name}.frag",
                     geometry,
-                    defines=shader_defines(GUTTER=gutter, **defines),
+                    defines=shader_defines(GUTTER=int(draw == GUTTER), **defines),
                 )
-                passes[(name, gutter, *variant)] = Pass(name, prog, state, samplers, VARIANT_KEYS)
+                passes[(name, draw, *variant)] = Pass(name, prog, state, samplers, VARIANT_KEYS)
     gl.cache[key] = passes
     return passes
+
+
+def sphere_atlas_defines() -> dict[str, str]:
+    """The built-in sphere's atlas (mesh/primitives.py) as defines for sphere_uv.glsl and
+    cube_grid.glsl, and its gutter, which capsule_uv.glsl shares."""
+    from dentdemo.mesh.primitives import CUBE_FACES
+    from dentdemo.mesh.primitives import GUTTER as ATLAS_GUTTER
+
+    def table(k: int) -> str:
+        return (
+            "vec3[6](" + ", ".join(f"vec3{tuple(float(x) for x in f[k])}" for f in CUBE_FACES) + ")"
+        )
+
+    return {
+        "CUBE_FACE_N": table(0),
+        "CUBE_FACE_A": table(1),
+        "CUBE_FACE_B": table(2),
+        "ATLAS_GUTTER": repr(float(ATLAS_GUTTER)),
+    }
 
 
 def rebuild_normals(
@@ -147,6 +182,9 @@ def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
         "u_quad": quad_kind(mesh),
         "u_swept_local": inverse3(m[:3, :3]).T.astype("f4").tobytes(),  # column-major
     }
+    if uniforms["u_quad"] == 1 and bound.grid > 0:  # cube_grid.glsl: passes 4 and 5 as rects
+        uniforms["u_cube_grid"] = bound.grid
+        uniforms["u_cube_radius"] = bound.radius
     if uniforms["u_quad"] == 2:  # capsule_uv.glsl: local radius, half length, rows
         half = float(np.linalg.norm(bound.segment[1] - bound.segment[0])) / 2
         uniforms["u_capsule"] = (bound.radius, half, float(bound.rings))
@@ -168,6 +206,13 @@ def quad_kind(mesh: Mesh) -> int:
     if np.array_equal(bound.segment[0], bound.segment[1]):
         return 1
     return 2 if bound.rings > 0 else 0
+
+
+def cube_grid(mesh: Mesh) -> int:
+    """A built-in sphere's cells per cube-face edge, whose chart texels passes 4 and 5 may draw
+    as rectangles (RECT), or 0."""
+    bound = mesh.bound
+    return bound.grid if bound is not None and quad_kind(mesh) == 1 else 0
 
 
 def model_uniforms(model: NDArray[np.float64]) -> dict[str, object]:

@@ -66,10 +66,13 @@ _READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER, _FRAMEBUFFER = 0x8CA8, 0x8CA9, 0x8D40
 _COLOR_BUFFER_BIT, _NEAREST = 0x4000, 0x2600
 
 
-def chart_boxes(mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int]) -> list[Box]:
+def chart_boxes(
+    mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int], margin: int = MARGIN
+) -> list[Box]:
     """For each chart (`Mesh.triangle_charts`) that `triangles` meet, the bounding box of their
-    texel boxes there: each triangle's uv bounding box in texels, grown by `MARGIN`, clamped to
-    the map; (x0, y0, x1, y1), half-open, in the charts' order, none where it is empty."""
+    texel boxes there: each triangle's uv bounding box in texels, grown by `margin`, clamped to
+    the map; (x0, y0, x1, y1), half-open, in the charts' order, none where it is empty. With
+    margin 0 it holds every texel whose centre lies in one of the triangles."""
     if len(triangles) == 0:
         return []
     which = np.asarray(triangles)
@@ -87,10 +90,10 @@ def chart_boxes(mesh: Mesh, triangles: NDArray[np.integer], size: tuple[int, int
     w, h = size
     out: list[Box] = []
     for u0, v0, u1, v1 in parts:  # a few: on Python floats
-        x0 = min(max(math.floor(u0 * w) - MARGIN, 0), w)
-        y0 = min(max(math.floor(v0 * h) - MARGIN, 0), h)
-        x1 = min(max(math.ceil(u1 * w) + MARGIN, 0), w)
-        y1 = min(max(math.ceil(v1 * h) + MARGIN, 0), h)
+        x0 = min(max(math.floor(u0 * w) - margin, 0), w)
+        y0 = min(max(math.floor(v0 * h) - margin, 0), h)
+        x1 = min(max(math.ceil(u1 * w) + margin, 0), w)
+        y1 = min(max(math.ceil(v1 * h) + margin, 0), h)
         if x1 > x0 and y1 > y0:
             out.append((x0, y0, x1, y1))
     return out

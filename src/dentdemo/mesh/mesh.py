@@ -42,6 +42,9 @@ class Bound:
     #: A built-in capsule's profile rows per hemisphere (its atlas's v follows them: the
     #: carve's capsule_uv.glsl), 0 for any other shape.
     rings: int = 0
+    #: A built-in sphere's cells per cube-face edge (its atlas: each face an n x n grid in its cell
+    #: of the 3 x 2 atlas; the carve's texel rectangles, cube_grid.glsl), 0 for any other shape.
+    grid: int = 0
     #: An open shape's material behind its faces, metres (a plate's thickness under its top face:
     #: mesh/thickness.py bounds dents by it; 0: none known, the ground).
     depth: float = 0.0

@@ -86,7 +86,7 @@ def sphere(radius: float, subdivisions: int = 32) -> Mesh:
         return radius * d / np.linalg.norm(d, axis=1, keepdims=True)
 
     mesh = _cube_atlas("sphere", subdivisions, place, True)
-    mesh.bound = Bound(segment=np.zeros((2, 3)), radius=radius, exact=True)
+    mesh.bound = Bound(segment=np.zeros((2, 3)), radius=radius, exact=True, grid=subdivisions)
     return mesh
 
 
