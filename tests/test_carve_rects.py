@@ -74,9 +74,9 @@ def test_a_sphere_as_texel_rectangles_carves_as_its_triangles_did(gl, bodies, ca
     gutter draws stay triangles), turned and scaled, on coarse and sub-texel facets; the tool a
     ball (a sphere too, dented as well) or a slab."""
     results = []
-    for rects in (False, True):
+    for rects in (0.0, math.inf):  # never, always
         carver = Carver(gl)
-        carver.texel_rects = rects
+        carver.rect_texels_per_triangle = rects
         try:
             target, tool, contact = _press(bodies, case)
             assert len(carver.carve(target, tool, contact, 0.004, 0.002)) == 2
@@ -124,7 +124,7 @@ def test_passes_4_and_5_over_a_sphere_draw_two_triangles_whatever_its_tessellati
     for rects in (True, False):
         for grid in (12, 32, 96):
             carver = Carver(gl)
-            carver.texel_rects = rects
+            carver.rect_texels_per_triangle = math.inf if rects else 0.0
             drawn: list[int] = []
 
             def counted(name: str, drawn=drawn):  # noqa: ANN202
@@ -145,6 +145,43 @@ def test_passes_4_and_5_over_a_sphere_draw_two_triangles_whatever_its_tessellati
     for grid in (12, 32, 96):
         assert counts[True, grid] == [2, 2]
     assert counts[False, 12][0] < counts[False, 32][0] < counts[False, 96][0]
+
+
+@pytest.mark.parametrize("grid", [12, 24, 96])
+def test_rectangles_are_drawn_where_the_triangles_are_fine(gl, bodies, grid):
+    """By default (`RECT_TEXELS_PER_TRIANGLE`) a sphere's chart texels are drawn as rectangles
+    where the footprint's triangles hold at most 3 texels of their charts' boxes each, else as
+    the triangles: a 5 cm sphere at 256² of 12 or 24 cells a face (about 40 and 11 texels a
+    triangle) keeps its triangles, one of 96 cells (under one) draws two a pass. The boxes are
+    worked out here from the triangles' texture coordinates (a cube face is a chart: its 2 n²
+    triangles are consecutive)."""
+    size = 256
+    carver = Carver(gl)
+    drawn: list[int] = []
+    carver.pass_timer = lambda name: (  # noqa: E731
+        _Primitives(gl.ctx, drawn) if name == "gather" else _Null()
+    )
+    try:
+        target = bodies.make(sphere(0.05, grid), size)
+        n = _unit((0.3, 1, 0.2))
+        tool, n = slab_on(bodies, 0.05 * n, n)
+        jobs = carver.carve(target, tool, ContactFrame(0.05 * n, -n), 0.004)
+    finally:
+        carver.release()
+    cam = jobs[0].camera
+    mesh = target.gpu_mesh.mesh
+    corners = mesh.uvs[mesh.indices[cam.target_texels]].astype(np.float64) * size  # texels
+    face = cam.target_texels // (2 * grid * grid)
+    area = 0
+    for f in np.unique(face):
+        uv = corners[face == f].reshape(-1, 2)
+        lo, hi = np.floor(uv.min(axis=0)), np.ceil(uv.max(axis=0))
+        area += int(np.prod(hi - lo))
+    rects = area <= 3.0 * len(cam.target_texels)
+    assert rects == (grid == 96)
+    gutter = 2 * len(cam.target_gutter)  # texel.geom: each a strip of two triangles
+    expected = 2 * len(np.unique(face)) if rects else len(cam.target_texels)
+    assert drawn == [expected + gutter]
 
 
 class _Primitives:

@@ -12,7 +12,7 @@ reaches the texels beside the dent, and never the whole body.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,6 +56,8 @@ class CollisionCamera:
     target_texels: NDArray[np.int64]
     #: Those of `target_texels` on a chart border (the gutter draws of passes 4 and 5).
     target_gutter: NDArray[np.int64]
+    #: What is worked out from the lists when first needed (undo.footprint_boxes).
+    derived: dict[str, object] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def pixel_metres(self) -> tuple[float, float]:

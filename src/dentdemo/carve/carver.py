@@ -34,7 +34,7 @@ from dentdemo.carve.texel_passes import (
     swept_uniforms,
     texture_space_passes,
 )
-from dentdemo.carve.undo import chart_boxes
+from dentdemo.carve.undo import footprint_boxes
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.passes import Blend, Pass, PassState, shared_batch
 from dentdemo.gl.shaders import program
@@ -171,20 +171,30 @@ class _Scratch:
         return placed, (x, y, shelf)
 
 
+#: A built-in sphere's chart texels are drawn as rectangles where its footprint's triangles hold
+#: at most this many texels of their boxes each: finer, the triangles' setup costs more than the
+#: rectangles' idle texels (docs/carve.md, "Texel rectangles": on llvmpipe, passes 4 and 5 of a
+#: sphere's hit cost the same to 0.55 ms less at 2.8 texels a triangle, 0.2 ms more at 10).
+RECT_TEXELS_PER_TRIANGLE = 3.0
+
+
 def _texel_draws(
-    job: CarveJob, rects: bool, quad: Callable[[moderngl.Program], None]
+    job: CarveJob, rects: float, quad: Callable[[moderngl.Program], None]
 ) -> Iterator[tuple[int, Callable[[moderngl.Program], None], dict[str, object] | None]]:
     """Passes 4 and 5's draws of `job`'s target: (how it covers texels, draw, its own uniforms)
     for its triangles in the footprint (CHART) and those of them on a chart border (GUTTER),
-    where there are any. With `rects`, a built-in sphere's chart texels are drawn instead as
-    one rectangle (`quad`, util/rect.vert) per chart the footprint's triangles meet, their
-    texel bounding box there (RECT)."""
+    where there are any. A built-in sphere's chart texels are drawn instead as one rectangle
+    (`quad`, util/rect.vert) per chart the footprint's triangles meet, their texel bounding box
+    there (RECT), where those triangles hold at most `rects` texels of the boxes each."""
     cam, gpu_mesh = job.camera, job.target.gpu_mesh
-    if not len(cam.target_texels):
+    count = len(cam.target_texels)
+    if not count:
         return
-    if rects and cube_grid(gpu_mesh.mesh):
+    boxes = footprint_boxes(job) if rects > 0 and cube_grid(gpu_mesh.mesh) else []
+    area = sum((x1 - x0) * (y1 - y0) for x0, y0, x1, y1 in boxes)
+    if boxes and area <= rects * count:
         size = job.target.maps.size
-        for x0, y0, x1, y1 in chart_boxes(gpu_mesh.mesh, cam.target_texels, size, margin=0):
+        for x0, y0, x1, y1 in boxes:
             yield RECT, quad, {"u_rect": (x0, y0, x1 - x0, y1 - y0), "u_viewport": size}
     else:
         yield CHART, gpu_mesh.drawer(cam.target_texels, "texels0"), None
@@ -262,9 +272,9 @@ class Carver:
         #: when False: the tests compare the two).
         self.swept_quads = True
         #: Draw a built-in sphere's chart texels in passes 4 and 5 as rectangles of texels, each
-        #: finding its facet from the sphere's atlas (its triangles when False: the tests
-        #: compare the two).
-        self.texel_rects = True
+        #: finding its facet from the sphere's atlas, where its footprint's triangles hold at
+        #: most this many texels of their boxes each (0: never; inf: always; the tests compare).
+        self.rect_texels_per_triangle = RECT_TEXELS_PER_TRIANGLE
         self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
@@ -484,7 +494,7 @@ class Carver:
         for job in jobs:
             cam, maps = job.camera, job.target.maps
             uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
-            for kind, draw, own in _texel_draws(job, self.texel_rects, self._draw_quad):
+            for kind, draw, own in _texel_draws(job, self.rect_texels_per_triangle, self._draw_quad):
                 pass_ = self._texel["normals", kind, False]
                 values = {**uniforms, **own} if own else uniforms
                 items.append(
@@ -509,7 +519,7 @@ class Carver:
             }
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
-            for kind, draw, own in _texel_draws(job, self.texel_rects, self._draw_quad):
+            for kind, draw, own in _texel_draws(job, self.rect_texels_per_triangle, self._draw_quad):
                 key = ("gather", kind, bool(uniforms["u_swept"]), job.oblique, job.convex)
                 values = {**uniforms, **own} if own else uniforms
                 items.append((self._texel[key], maps.height_fbo, maps.size, draw, textures, values))

@@ -99,6 +99,18 @@ def chart_boxes(
     return out
 
 
+def footprint_boxes(job: CarveJob) -> list[Box]:
+    """`chart_boxes` of the triangles passes 4 and 5 draw for `job`, with no margin: the texels
+    whose centres lie in them, per chart (computed once per camera)."""
+    cam = job.camera
+    boxes = cam.derived.get("boxes")
+    if boxes is None:
+        size = job.target.maps.size
+        boxes = chart_boxes(job.target.gpu_mesh.mesh, cam.target_texels, size, margin=0)
+        cam.derived["boxes"] = boxes
+    return boxes  # type: ignore[return-value]
+
+
 def merged_rects(boxes: NDArray[np.int64] | Sequence[Sequence[int]], gap: int = GAP) -> list[Rect]:
     """Disjoint rectangles that together hold every box (x0, y0, x1, y1): the boxes split into
     groups along a row or column band that no box touches and that is at least `gap` texels
@@ -136,7 +148,11 @@ def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
     for job in jobs:
         maps = job.target.maps
         # The gutter's triangles are among the texels' (`collision_camera`): so are their boxes.
-        boxes = chart_boxes(job.target.gpu_mesh.mesh, job.camera.target_texels, maps.size)
+        w, h = maps.size
+        boxes = [
+            (max(x0 - MARGIN, 0), max(y0 - MARGIN, 0), min(x1 + MARGIN, w), min(y1 + MARGIN, h))
+            for x0, y0, x1, y1 in footprint_boxes(job)
+        ]
         by_maps.setdefault(id(maps), (maps, []))[1].extend(boxes)
     return [(maps, merged_rects(found)) for maps, found in by_maps.values()]
 

@@ -294,10 +294,10 @@ class Mesh:
 
     def prepare_queries(self) -> None:
         """Build now the cached structures pass 1 and the undo log query (corners, bounding
-        spheres, clusters, uv derivatives and bounds, chart borders and charts, closedness), as
-        a body is made: otherwise each body builds them at its first hit, which then costs about
-        2 ms more for a 1 728-triangle ball on the development VM (a sandbox drop's first hits
-        are mostly first hits)."""
+        spheres, clusters, uv derivatives and bounds, chart borders and charts, closedness, the
+        facets' sag), as a body is made: otherwise each body builds them at its first hit, which
+        then costs about 3 ms more for a 1 728-triangle ball on the development VM (a sandbox
+        drop's first hits are mostly first hits)."""
         self.corner_array()
         self.face_normals()
         self.triangle_uv_bounds()
@@ -308,6 +308,7 @@ class Mesh:
         self.chart_border()
         self.triangle_charts()
         self.encloses_volume()
+        self.facet_sag()
 
     def cluster_members_spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The bounding spheres of each cluster's triangles laid out as `clusters()`'s members:
