@@ -480,6 +480,10 @@ class Carver:
                 for item in items:
                     one(self._surface[variant], *item)
 
+    def _texel_draws(self, job: CarveJob) -> Iterator[tuple]:
+        """`_texel_draws` of `job` under this carver's settings."""
+        return _texel_draws(job, self.rect_texels_per_triangle, self._draw_quad)
+
     def _draw_quad(self, prog: moderngl.Program) -> None:
         """quad.vert's four corners (no vertex data)."""
         if prog.glo not in self._quad_vaos:
@@ -494,7 +498,7 @@ class Carver:
         for job in jobs:
             cam, maps = job.camera, job.target.maps
             uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
-            for kind, draw, own in _texel_draws(job, self.rect_texels_per_triangle, self._draw_quad):
+            for kind, draw, own in self._texel_draws(job):
                 pass_ = self._texel["normals", kind, False]
                 values = {**uniforms, **own} if own else uniforms
                 items.append(
@@ -519,7 +523,7 @@ class Carver:
             }
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
-            for kind, draw, own in _texel_draws(job, self.rect_texels_per_triangle, self._draw_quad):
+            for kind, draw, own in self._texel_draws(job):
                 key = ("gather", kind, bool(uniforms["u_swept"]), job.oblique, job.convex)
                 values = {**uniforms, **own} if own else uniforms
                 items.append((self._texel[key], maps.height_fbo, maps.size, draw, textures, values))

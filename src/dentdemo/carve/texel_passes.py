@@ -62,7 +62,9 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
                 if draw == RECT and variant not in ((True, True, True), (False,)):
                     continue
                 names = ("SWEPT", "EXIT", "CONVEX")[: len(variant)]
-                defines = {key: int(value) for key, value in zip(names, variant, strict=True)}
+                defines: dict[str, object] = {
+                    key: int(value) for key, value in zip(names, variant, strict=True)
+                }
                 if draw == RECT:  # under the same state as the triangles' draws
                     defines.update(RECT=1, CLIP_DISTANCES=CLIP_DISTANCES, **sphere_atlas_defines())
                 prog = program(

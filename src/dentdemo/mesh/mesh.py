@@ -177,12 +177,13 @@ class Mesh:
         normals = self.face_normals()
         unit = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
         eps = 1e-6 * max(r, length)  # the corners are float32
+        ends: list[tuple[NDArray[np.bool_], NDArray[np.float64]]]
         if length <= eps:
             ends = [(np.ones(len(corners), dtype=bool), a)]
         else:
             axis = (b - a) / length
             t = (corners - a) @ axis  # (m, 3) along the axis
-            ends = [((t <= eps).all(axis=1), a), ((t >= length - eps).all(axis=1), b)]
+            ends = [(np.all(t <= eps, axis=1), a), (np.all(t >= length - eps, axis=1), b)]
             side = ((t >= -eps) & (t <= length + eps)).all(axis=1)
             across = edges - (edges @ axis)[..., None] * axis  # chords in the cross-section
             chord = np.linalg.norm(across[side], axis=2).max(axis=1)
