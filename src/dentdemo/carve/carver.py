@@ -36,6 +36,7 @@ from dentdemo.carve.texel_passes import (
 )
 from dentdemo.carve.undo import footprint_boxes
 from dentdemo.gl.context import GLContext, release
+from dentdemo.gl.library import flush
 from dentdemo.gl.passes import Blend, Pass, PassState, shared_batch
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
@@ -334,6 +335,9 @@ class Carver:
         faces): one clear of the atlas per camera pass, the gathers and normal rebuilds grouped
         by the map they write."""
         self._camera_stage(jobs)
+        # Hand passes 3 and 2 to the rasteriser now: a software one draws them while the CPU
+        # builds the gathers' draws, instead of when the first gather samples their result.
+        flush()
         by_map = sorted(jobs, key=lambda job: id(job.target.maps))  # one map's draws together
         with self._timed("gather"):
             self._gather_passes(by_map)
