@@ -322,22 +322,24 @@ class Carver:
         placed: list[CarveJob] = []
         if any(hits):
             with preserved(self.gl.ctx):  # the host's GL state, as it left it
-                if self.undo_log is not None:
-                    self.undo_log.record(hits)  # one entry: the maps before the whole batch
                 for batch in self.scratch.pack([hit for hit in hits if hit]):
-                    self._run(batch)
+                    self._run(batch, None if placed else hits)
                     placed += batch
             self.last_jobs = placed
         return placed
 
-    def _run(self, jobs: list[CarveJob]) -> None:
+    def _run(self, jobs: list[CarveJob], record: list[list[CarveJob]] | None) -> None:
         """Passes 3, 2, 4 and 5 of every direction of a batch (pass 2 reads pass 3's front
         faces): one clear of the atlas per camera pass, the gathers and normal rebuilds grouped
-        by the map they write."""
+        by the map they write. The undo log (if any) records `record` (every hit of the call:
+        one entry, the maps before all of it) before the first gather writes."""
         self._camera_stage(jobs)
         # Hand passes 3 and 2 to the rasteriser now: a software one draws them while the CPU
-        # builds the gathers' draws, instead of when the first gather samples their result.
+        # goes on (the undo log's snapshot, the gathers' draws), instead of when the first
+        # gather samples their result.
         flush()
+        if record is not None and self.undo_log is not None:
+            self.undo_log.record(record)
         by_map = sorted(jobs, key=lambda job: id(job.target.maps))  # one map's draws together
         with self._timed("gather"):
             self._gather_passes(by_map)
