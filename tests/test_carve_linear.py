@@ -120,3 +120,36 @@ def test_the_faces_slab_extent_equals_the_meshes_one(seed: int) -> None:
         assert (a is None) == (b is None)
         if a is not None and b is not None:
             assert (a.x0, a.x1, a.y0, a.y1) == (b.x0, b.x1, b.y0, b.y1)
+
+
+@pytest.mark.parametrize("mirror", [1.0, -1.0])
+@pytest.mark.parametrize("seed", range(4))
+def test_a_box_s_nearest_and_farthest_points_come_from_its_corners(seed: int, mirror) -> None:
+    # A box seen whole (a rectangle around all of it) has its lowest and highest s at corners:
+    # the extremes of its eight corners' s, at any pose, mirrored or not (s_extreme looks at the
+    # faces turned towards, or away from, the camera only). Seen through a rectangle around one
+    # corner's x, y alone, the lowest s is no lower than that corner's if it is the nearest.
+    from dentdemo.carve.footprint import Projected
+    from dentdemo.mesh.primitives import box
+
+    rng = np.random.default_rng(seed)
+    size = rng.uniform(0.05, 1.0, 3)
+    solid = box(tuple(size))
+    model = np.eye(4)
+    model[:3, :3] = _rotation(rng) @ np.diag([mirror, 1.0, 1.0]) * rng.uniform(0.5, 2.0)
+    model[:3, 3] = rng.normal(size=3)
+    forward = _rotation(rng)[:, 0]
+    right = np.cross(forward, rng.normal(size=3))
+    right /= np.linalg.norm(right)
+    axes = np.stack([right, np.cross(right, forward), forward])
+    origin = rng.normal(size=3)
+    projected = Projected(solid, model, origin, axes)
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    corners = (signs * size / 2) @ model[:3, :3].T + model[:3, 3]
+    camera = (corners - origin) @ axes.T  # (8, 3): x, y, s
+    whole = Rect(-1e3, 1e3, -1e3, 1e3)
+    assert projected.s_extreme(whole, lowest=True) == pytest.approx(camera[:, 2].min())
+    assert projected.s_extreme(whole, lowest=False) == pytest.approx(camera[:, 2].max())
+    nearest = camera[np.argmin(camera[:, 2])]
+    around = Rect(nearest[0] - 1e-6, nearest[0] + 1e-6, nearest[1] - 1e-6, nearest[1] + 1e-6)
+    assert projected.s_extreme(around, lowest=True) == pytest.approx(nearest[2], abs=1e-5)

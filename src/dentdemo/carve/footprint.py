@@ -201,7 +201,7 @@ class Projected:
             s = self._segment[:, 2]
             return float(s.min() - self._radius) if lowest else float(s.max() + self._radius)
         if self._faces is not None:
-            return _faces_extreme(self._faces, rect, lowest)
+            return _faces_extreme(self._faces_towards(lowest), rect, lowest)
         centre, r, all_members = self._clusters
         c = centre[:, 2]
         groups = _meets(centre, r, rect, None)
@@ -220,6 +220,23 @@ class Projected:
             return None
         s = self.corners(which)[..., 2]
         return float(s.min()) if lowest else float(s.max())
+
+    def _faces_towards(self, front: bool) -> Array:
+        """A built-in shape's faces that may hold its lowest s (`front`: those turned towards the
+        camera or edge-on) or its highest (turned away or edge-on): for a closed convex solid
+        the view line through any x, y meets a front face before (and a back face after) any
+        other point, so the others hold no extreme; an open shape keeps all of its faces."""
+        faces = self._faces
+        assert faces is not None
+        if not self.solid:
+            return faces
+        a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
+        e1, e2 = b - a, c - a
+        # The outward normal's s (faces wind counter-clockwise seen from outside). Camera
+        # coordinates are left-handed (up = right x forward), so the cross product of camera
+        # edges is the inward normal; a mirroring pose turns the winding over once more.
+        s = -(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) * self._handed
+        return faces[s <= 0.0] if front else faces[s >= 0.0]
 
     def slab_part(self, rect: Rect, lo: float, hi: float) -> Rect | None:
         """The x, y extent of the parts with lo <= s <= hi of the triangles meeting `rect` (of

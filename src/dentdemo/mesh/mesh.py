@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -393,27 +394,35 @@ class Mesh:
         d = centre[group] - p
         k = int(group[np.argmin(np.einsum("ij,ij->i", d, d))])
         dpdu, dpdv = self.triangle_derivatives()
-        du, dv = dpdu[k], dpdv[k]
-        a = self.positions[self.indices[k, 0]].astype(np.float64)
-        uv0 = self.uvs[self.indices[k, 0]].astype(np.float64)
-        n = np.array(
-            [
-                du[1] * dv[2] - du[2] * dv[1],
-                du[2] * dv[0] - du[0] * dv[2],
-                du[0] * dv[1] - du[1] * dv[0],
-            ]
-        )
-        n /= max(float(np.sqrt(n @ n)), 1e-30)
-        rel = p - a
-        distance = float(abs(rel @ n))
+        corner = int(self.indices[k, 0])
+        # One triangle's frame: a few scalars, on Python floats (numpy costs more per call).
+        ux, uy, uz = dpdu[k].tolist()
+        vx, vy, vz = dpdv[k].tolist()
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        length = max(math.sqrt(nx * nx + ny * ny + nz * nz), 1e-30)
+        nx, ny, nz = nx / length, ny / length, nz / length
+        ax, ay, az = self.positions[corner].tolist()
+        px, py, pz = p.tolist()
+        rx, ry, rz = px - ax, py - ay, pz - az
+        distance = abs(rx * nx + ry * ny + rz * nz)
         # uv offset of p's projection on the plane: solve rel = s dpdu + t dpdv (normal
         # equations of the 3 x 2 system).
-        guu, guv, gvv = du @ du, du @ dv, dv @ dv
-        bu, bv = rel @ du, rel @ dv
+        guu = ux * ux + uy * uy + uz * uz
+        guv = ux * vx + uy * vy + uz * vz
+        gvv = vx * vx + vy * vy + vz * vz
+        bu, bv = rx * ux + ry * uy + rz * uz, rx * vx + ry * vy + rz * vz
         det = guu * gvv - guv * guv
-        duv = np.array([gvv * bu - guv * bv, guu * bv - guv * bu]) / (det if det else 1e-30)
-        outward = 1.0 if n @ self.normals[self.indices[k, 0]] >= 0 else -1.0
-        return SurfacePoint(uv0 + duv, du, dv, n * outward, distance)
+        det = det if det else 1e-30
+        u0, v0 = self.uvs[corner].tolist()
+        wx, wy, wz = self.normals[corner].tolist()
+        outward = 1.0 if nx * wx + ny * wy + nz * wz >= 0 else -1.0
+        return SurfacePoint(
+            np.array([u0 + (gvv * bu - guv * bv) / det, v0 + (guu * bv - guv * bu) / det]),
+            dpdu[k],
+            dpdv[k],
+            np.array([nx * outward, ny * outward, nz * outward]),
+            distance,
+        )
 
     # -- clean-up ------------------------------------------------------------------------------
     def _drop_degenerate(self) -> None:
