@@ -43,6 +43,7 @@ from dentdemo.gl.state import preserved
 
 if TYPE_CHECKING:
     from dentdemo.carve.undo import UndoLog
+    from dentdemo.mesh.mesh import Mesh
 
 
 @dataclass
@@ -222,6 +223,9 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
 
 
+#: Poses whose uniforms the carver keeps (a burst's bodies; cleared when full).
+POSES_KEPT = 256
+
 #: Pass 3's blend: the farthest back face and the coverage (red, green: MAX), the nearest front
 #: face (alpha: MIN); order-independent, so the result is the same whatever order faces come in.
 _PEEL_BLEND = Blend(
@@ -291,6 +295,8 @@ class Carver:
         self.address_every_target = False
         #: Snapshots each batch's footprints before it is carved, when set (carve/undo.py).
         self.undo_log: UndoLog | None = None
+        #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
+        self._posed: dict[tuple[int, bytes], tuple[Mesh, dict[str, object]]] = {}
 
     # -- public --------------------------------------------------------------------------------
     def carve(
@@ -440,15 +446,26 @@ class Carver:
             camera,
             {
                 **view,
-                **model_uniforms(target.model),
-                **swept_uniforms(target.gpu_mesh.mesh, target.model),
+                **self._pose_uniforms(target.gpu_mesh.mesh, target.model),
                 "u_near_clip": camera.ring_slab[0],
                 "u_advance": depth,
             },
-            {**view, **model_uniforms(advanced), **swept_uniforms(tool.gpu_mesh.mesh, advanced)},
+            {**view, **self._pose_uniforms(tool.gpu_mesh.mesh, advanced)},
             oblique=_oblique(target, camera),
             convex=target.gpu_mesh.mesh.bound is not None,
         )
+
+    def _pose_uniforms(self, mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
+        """`model_uniforms` and `swept_uniforms` of a body posed at `model`, kept for the rest
+        of the batch being planned: a burst's hits share a target and often a tool's pose."""
+        key = (id(mesh), np.asarray(model, dtype=np.float64).tobytes())
+        found = self._posed.get(key)
+        if found is None or found[0] is not mesh:
+            if len(self._posed) >= POSES_KEPT:
+                self._posed.clear()
+            found = (mesh, {**model_uniforms(model), **swept_uniforms(mesh, model)})
+            self._posed[key] = found
+        return found[1]
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
     def _camera_stage(self, jobs: list[CarveJob]) -> None:
