@@ -76,17 +76,17 @@ def chart_boxes(
     if len(triangles) == 0:
         return []
     which = np.asarray(triangles)
-    bounds = mesh.triangle_uv_bounds()[which]
-    charts = mesh.triangle_charts()[which]
+    bounds = mesh.triangle_uv_bounds().take(which, axis=1)  # (4, k)
+    charts = mesh.triangle_charts().take(which)
     if charts.min() == charts.max():  # one chart (most presses)
-        parts = [[*bounds[:, :2].min(axis=0).tolist(), *bounds[:, 2:].max(axis=0).tolist()]]
+        parts = [[*bounds[:2].min(axis=1).tolist(), *bounds[2:].max(axis=1).tolist()]]
     else:
         order = np.argsort(charts, kind="stable")
-        bounds, charts = bounds[order], charts[order]
+        bounds, charts = bounds[:, order], charts[order]
         starts = np.flatnonzero(np.concatenate([[True], charts[1:] != charts[:-1]]))
-        low = np.minimum.reduceat(bounds[:, :2], starts, axis=0)
-        high = np.maximum.reduceat(bounds[:, 2:], starts, axis=0)
-        parts = np.concatenate([low, high], axis=1).tolist()
+        low = np.minimum.reduceat(bounds[:2], starts, axis=1)
+        high = np.maximum.reduceat(bounds[2:], starts, axis=1)
+        parts = np.concatenate([low, high]).T.tolist()
     w, h = size
     out: list[Box] = []
     for u0, v0, u1, v1 in parts:  # a few: on Python floats
