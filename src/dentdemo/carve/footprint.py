@@ -104,7 +104,7 @@ class Projected:
 
     def corners(self, which: Indices) -> Array:
         """(k, 3, 3) camera (x, y, s) of the corners of triangles `which`."""
-        return self._to_camera(self._mesh.corner_array()[which])
+        return self._to_camera(self._mesh.corner_array().take(which, axis=0))
 
     def faces_away(self, which: Indices, away: bool = True) -> bool:
         """Whether any of triangles `which` faces away from the camera (its outward normal has
@@ -114,13 +114,13 @@ class Projected:
             return False
         # The winding's normal in local space, along the camera's s (a positive multiple of
         # the posed normal's s: the pose is a rotation times a scale, mirrored by `_handed`).
-        s = self._mesh.face_normals()[which] @ (self._local_axes[2] * self._handed)
+        s = self._mesh.face_normals().take(which, axis=0) @ (self._local_axes[2] * self._handed)
         return bool((s > 0.0).any() if away else (s < 0.0).any())
 
     def spheres(self, which: Indices) -> tuple[Array, Array]:
         """Camera-space bounding spheres (centres (k, 3), radii (k,)) of triangles `which`."""
         centre, radius = self._mesh.triangle_spheres()
-        return self._to_camera(centre[which]), radius[which] * self._scale
+        return self._to_camera(centre.take(which, axis=0)), radius.take(which) * self._scale
 
     def s_range(self) -> tuple[float, float]:
         """Bounds of s over the whole mesh (from the cluster spheres, or a built-in shape's

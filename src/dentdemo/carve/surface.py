@@ -66,7 +66,8 @@ class _IndexStream:
         held = self._placed.get(id(triangles))
         if held is not None and held[0] is triangles:
             return held[1]
-        data = indices[triangles].astype("u4").tobytes()
+        # take(): a quarter of the time of indexing with the array (numpy 2).
+        data = indices.take(triangles, axis=0).astype("u4", copy=False).tobytes()
         if self._end + len(data) > self.capacity:
             self.buffer.orphan()
             self._end = 0
