@@ -13,7 +13,7 @@ from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
 
 
-def test_bench_tiny_json_schema(tmp_path):
+def test_bench_tiny_json_schema(gl, tmp_path):
     out, plot = tmp_path / "bench.json", tmp_path / "bench.png"
     result = dentdemo(
         "bench", "--tiny", "--frames", "3", "--json", str(out), "--plot", str(plot), timeout=600
@@ -72,6 +72,16 @@ def test_bench_tiny_json_schema(tmp_path):
         else:
             assert frame["carve_ms_per_hit"] is None
     assert data["memory"]["bytes_per_texel"] == 9
+    # The scratch atlas a default Carver allocates: two RGBA32F textures (16 bytes a pixel) and
+    # a depth texture (4), at their own size.
+    carver = Carver(gl)
+    try:
+        scratch = carver.scratch
+        textures = (scratch.address, scratch.tool_depth, scratch.depth)
+        allocated = sum(t.width * t.height * (16 if t.components == 4 else 4) for t in textures)
+    finally:
+        carver.release()
+    assert data["memory"]["scratch_bytes"] == allocated
     assert data["agreement"]["max_abs_diff_m"] < 1e-5
     assert plot.stat().st_size > 0
     assert "GPU ms/hit" in result.stdout and data["machine"]["renderer"] in result.stdout

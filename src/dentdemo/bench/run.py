@@ -18,7 +18,13 @@ from dentdemo import __version__, interrupt
 from dentdemo.app.press import make_setup, shape_from_args
 from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import CarveBody, Carver
+from dentdemo.carve.carver import (
+    ATLAS_BYTES_PER_PIXEL,
+    MAX_RESOLUTION,
+    CarveBody,
+    Carver,
+    atlas_size,
+)
 from dentdemo.carve.cpu_reference import CpuReference
 from dentdemo.gl.context import GLContext, create_headless
 from dentdemo.progress import progress_bar
@@ -403,8 +409,7 @@ def memory(gl: GLContext) -> dict:
         "bytes_per_texel": per_texel,
         "layout": "R32F height (4) + RGBA8 normal (4) + R8UI chart mask (1)",
         "map_bytes": {str(s): s * s * per_texel for s in (256, 512, 1024, 2048, 4096)},
-        # The cameras' atlas: address RGBA32F (16) + the tool's extent RGBA32F (16) + depth (4).
-        "scratch_bytes": 2048 * 1024 * (16 + 16 + 4),
+        "scratch_bytes": math.prod(atlas_size(MAX_RESOLUTION)) * ATLAS_BYTES_PER_PIXEL,
     }
 
 

@@ -115,6 +115,21 @@ class CarveJob:
 Press = tuple["CarveBody", "CarveBody", ContactFrame, float, float]
 
 
+#: Pixels a collision camera has at most a side (beyond, its pixels grow).
+MAX_RESOLUTION = 1023
+#: Bytes a pixel of the cameras' atlas takes: the address map RGBA32F (16), the tool's extent
+#: RGBA32F (16), depth (4).
+ATLAS_BYTES_PER_PIXEL = 16 + 16 + 4
+
+
+def atlas_size(max_resolution: int) -> tuple[int, int]:
+    """The cameras' atlas for cameras of at most `max_resolution` pixels a side: two of the
+    largest side by side (the memory of one hit's two directions), or many small ones; a power
+    of two each way (pass 4's sampling)."""
+    width = 1 << (2 * max_resolution + 1).bit_length()
+    return width, width // 2
+
+
 class _Scratch:
     """The collision cameras' buffers: one atlas, allocated once, in which each direction of a
     batch has its own tile (shelf-packed); a batch uses (and clears) only the tiles' bounding
@@ -245,13 +260,10 @@ _SURFACE_PASSES = {
 class Carver:
     """Carves dents into SurfaceMaps. One per GL context."""
 
-    def __init__(self, gl: GLContext, max_resolution: int = 1023) -> None:
+    def __init__(self, gl: GLContext, max_resolution: int = MAX_RESOLUTION) -> None:
         self.gl = gl
         self.max_resolution = max_resolution
-        #: Two cameras of the largest resolution side by side (the memory of one hit's two
-        #: directions), or many small ones; a power of two each way (pass 4's sampling).
-        width = 1 << (2 * max_resolution + 1).bit_length()
-        self.scratch = _Scratch(gl.ctx, (width, width // 2))
+        self.scratch = _Scratch(gl.ctx, atlas_size(max_resolution))
         atlas = sphere_atlas_defines()
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
         #: is a sphere or capsule drawn as one quad: QUAD 1, 2).
