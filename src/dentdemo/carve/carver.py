@@ -527,8 +527,8 @@ class Carver:
 
     # -- pass 5 --------------------------------------------------------------------------------
     def _normal_passes(self, jobs: list[CarveJob]) -> None:
-        """Pass 5 of `jobs` (sorted by the map they dent; as `rebuild_normals` does one
-        camera's): the state applied once, each map's framebuffer bound once."""
+        """Pass 5 of `jobs` (sorted by the map they dent) over their footprints' texels and the
+        ring beside them: the state applied once, each map's framebuffer bound once."""
         items: list[tuple] = []
         for job in jobs:
             cam, maps = job.camera, job.target.maps

@@ -299,7 +299,7 @@ def rebuild_all_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> 
 
     with preserved(gl.ctx):
         maps.normal_fbo.clear(0.5, 0.5, 1.0, 1.0)  # the flat tangent-space normal (0, 0, 1)
-        rebuild_normals(gl, gpu_mesh, maps, np.eye(4), None)
+        rebuild_normals(gl, gpu_mesh, maps)
 
 
 def load_height_png(path: Path, size: int, amplitude: float) -> np.ndarray:

@@ -99,38 +99,21 @@ def sphere_atlas_defines() -> dict[str, str]:
     }
 
 
-def rebuild_normals(
-    gl: GLContext,
-    gpu_mesh: GpuMesh,
-    maps: SurfaceMaps,
-    model: NDArray[np.float64],
-    camera: CollisionCamera | None,
-    passes: dict[tuple[str, int, bool], Pass] | None = None,
-    shared: dict[str, object] | None = None,
-) -> None:
-    """Pass 5: the normals of the texels in `camera`'s footprint (its `ring_slab`), or of every
-    texel of the map when `camera` is None (creation, import). `shared`: the camera and model
-    uniforms when the caller has them."""
-    passes = passes or texture_space_passes(gl)
-    uniforms: dict[str, object] = dict(shared) if shared else model_uniforms(model)
-    uniforms["u_map_size"] = maps.size
-    every = None if camera is None else camera.target_texels
-    border = np.nonzero(gpu_mesh.mesh.chart_border())[0] if camera is None else camera.target_gutter
-    if camera is None:
-        uniforms["u_clip"] = False
-    else:
-        if not shared:
-            uniforms.update(camera_uniforms(camera))
-        uniforms.update(clip_uniforms(camera, maps, camera.ring_slab))
-    for gutter, triangles in ((0, every), (1, border)):
+def rebuild_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None:
+    """Pass 5 over every texel of the map, unclipped (map creation, import): every triangle's
+    chart texels, then the gutter texels around the chart-border triangles. A hit's pass 5 is
+    `Carver._normal_passes`, over its footprint."""
+    passes = texture_space_passes(gl)
+    uniforms = {**model_uniforms(np.eye(4)), "u_map_size": maps.size, "u_clip": False}
+    border = np.nonzero(gpu_mesh.mesh.chart_border())[0]
+    for kind, triangles in ((CHART, None), (GUTTER, border)):
         if triangles is not None and len(triangles) == 0:
             continue
-        normals = passes["normals", gutter, False]
-        normals.run(
+        passes["normals", kind, False].run(
             gl.ctx,
             maps.normal_fbo,
             (0, 0, *maps.size),
-            gpu_mesh.drawer(triangles, f"texels{gutter}"),
+            gpu_mesh.drawer(triangles, f"texels{kind}"),
             (maps.height, maps.mask),
             uniforms,
         )
