@@ -90,13 +90,23 @@ def chart_boxes(
     w, h = size
     out: list[Box] = []
     for u0, v0, u1, v1 in parts:  # a few: on Python floats
-        x0 = min(max(math.floor(u0 * w) - margin, 0), w)
-        y0 = min(max(math.floor(v0 * h) - margin, 0), h)
-        x1 = min(max(math.ceil(u1 * w) + margin, 0), w)
-        y1 = min(max(math.ceil(v1 * h) + margin, 0), h)
+        tight = (math.floor(u0 * w), math.floor(v0 * h), math.ceil(u1 * w), math.ceil(v1 * h))
+        x0, y0, x1, y1 = grown(tight, margin, size)
         if x1 > x0 and y1 > y0:
             out.append((x0, y0, x1, y1))
     return out
+
+
+def grown(box: Box, margin: int, size: tuple[int, int]) -> Box:
+    """`box` grown by `margin` texels on each side, clamped to a map of `size`."""
+    x0, y0, x1, y1 = box
+    w, h = size
+    return (
+        min(max(x0 - margin, 0), w),
+        min(max(y0 - margin, 0), h),
+        min(max(x1 + margin, 0), w),
+        min(max(y1 + margin, 0), h),
+    )
 
 
 def footprint_boxes(job: CarveJob) -> list[Box]:
@@ -148,11 +158,7 @@ def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
     for job in jobs:
         maps = job.target.maps
         # The gutter's triangles are among the texels' (`collision_camera`): so are their boxes.
-        w, h = maps.size
-        boxes = [
-            (max(x0 - MARGIN, 0), max(y0 - MARGIN, 0), min(x1 + MARGIN, w), min(y1 + MARGIN, h))
-            for x0, y0, x1, y1 in footprint_boxes(job)
-        ]
+        boxes = [grown(box, MARGIN, maps.size) for box in footprint_boxes(job)]
         by_maps.setdefault(id(maps), (maps, []))[1].extend(boxes)
     return [(maps, merged_rects(found)) for maps, found in by_maps.values()]
 
