@@ -226,16 +226,16 @@ class Projected:
         camera or edge-on) or its highest (turned away or edge-on): for a closed convex solid
         the view line through any x, y meets a front face before (and a back face after) any
         other point, so the others hold no extreme; an open shape keeps all of its faces."""
-        faces = self._faces
-        assert faces is not None
+        faces, bound = self._faces, self._mesh.bound
+        assert faces is not None and bound is not None and bound.triangles is not None
         if not self.solid:
             return faces
-        a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
-        e1, e2 = b - a, c - a
-        # The outward normal's s (faces wind counter-clockwise seen from outside). Camera
-        # coordinates are left-handed (up = right x forward), so the cross product of camera
-        # edges is the inward normal; a mirroring pose turns the winding over once more.
-        s = -(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) * self._handed
+        # The outward normal's s (a positive multiple): the local one (faces wind
+        # counter-clockwise seen from outside) along the camera's s. Unlike `faces_away`, not
+        # turned over by a mirroring pose: a mirror moves the solid, not which side is out.
+        local = bound.triangles
+        normal = np.cross(local[:, 1] - local[:, 0], local[:, 2] - local[:, 0])
+        s = normal @ self._local_axes[2]
         return faces[s <= 0.0] if front else faces[s >= 0.0]
 
     def slab_part(self, rect: Rect, lo: float, hi: float) -> Rect | None:
