@@ -153,3 +153,51 @@ def test_a_box_s_nearest_and_farthest_points_come_from_its_corners(seed: int, mi
     nearest = camera[np.argmin(camera[:, 2])]
     around = Rect(nearest[0] - 1e-6, nearest[0] + 1e-6, nearest[1] - 1e-6, nearest[1] + 1e-6)
     assert projected.s_extreme(around, lowest=True) == pytest.approx(nearest[2], abs=1e-5)
+
+
+def _matrix(data: bytes) -> np.ndarray:
+    """A GLSL mat3 or mat4 from column-major float32 bytes, as the shader reads it."""
+    values = np.frombuffer(data, dtype=np.float32).astype(np.float64)
+    n = int(round(len(values) ** 0.5))
+    return values.reshape(n, n, order="F")
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("mirror", [False, True])
+def test_pose_uniforms_are_the_pose_its_normal_matrix_and_its_inverse(seed: int, mirror) -> None:
+    """What the carve's shaders read of a posed body, against numpy's own inverse: the pose
+    (world from local), the normal matrix (the inverse transposed), a swept solid's local frame
+    (local from world) and its ends and radius in world metres, for every built-in shape."""
+    from dentdemo.carve.texel_passes import pose_uniforms
+    from dentdemo.mesh import primitives
+
+    rng = np.random.default_rng(seed)
+    linear = _rotation(rng) * rng.uniform(0.2, 5.0)
+    if mirror:
+        linear = linear @ np.diag([1.0, 1.0, -1.0])
+    model = np.eye(4)
+    model[:3, :3], model[:3, 3] = linear, rng.normal(size=3)
+    inverse = np.linalg.inv(linear)
+    scale = abs(np.linalg.det(linear)) ** (1 / 3)
+    meshes = {
+        "sphere": primitives.sphere(0.05, subdivisions=6),
+        "capsule": primitives.capsule(0.02, 0.1, around=16, rings=4),
+        "cylinder": primitives.cylinder(0.02, 0.1, around=16),
+        "plate": primitives.plate(0.5, thickness=0.02),
+        "box": primitives.box((0.1, 0.2, 0.3)),
+    }
+    for name, mesh in meshes.items():
+        u = pose_uniforms(mesh, model)
+        assert np.allclose(_matrix(u["u_model"]), model, rtol=1e-6, atol=1e-6), name
+        assert np.allclose(_matrix(u["u_normal_matrix"]), inverse.T, rtol=1e-6, atol=1e-6), name
+        swept = name in ("sphere", "capsule")  # the shapes that are their own swept sphere
+        assert u["u_swept"] is swept, name
+        assert u.get("u_quad", 0) == {"sphere": 1, "capsule": 2}.get(name, 0), name
+        if swept:
+            assert np.allclose(_matrix(u["u_swept_local"]), inverse, rtol=1e-6, atol=1e-6)
+            radius = {"sphere": 0.05, "capsule": 0.02}[name]
+            assert u["u_swept_radius"] == pytest.approx(radius * scale, rel=1e-12)
+            half = 0.0 if name == "sphere" else 0.05  # the capsule's axis: local z
+            for key, z in (("u_swept_a", -half), ("u_swept_b", half)):
+                end = linear @ np.array([0.0, 0.0, z]) + model[:3, 3]
+                assert np.allclose(u[key], end, atol=1e-12), (name, key)

@@ -6,6 +6,7 @@ of the maps."""
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field, replace
@@ -28,10 +29,9 @@ from dentdemo.carve.texel_passes import (
     clip_uniforms,
     cube_grid,
     is_swept,
-    model_uniforms,
+    pose_uniforms,
     quad_kind,
     sphere_atlas_defines,
-    swept_uniforms,
     texture_space_passes,
 )
 from dentdemo.carve.undo import footprint_boxes
@@ -359,10 +359,11 @@ class Carver:
         if record is not None and self.undo_log is not None:
             self.undo_log.record(record)
         by_map = sorted(jobs, key=lambda job: id(job.target.maps))  # one map's draws together
+        draws = [list(self._texel_draws(job)) for job in by_map]  # passes 4 and 5 draw the same
         with self._timed("gather"):
-            self._gather_passes(by_map)
+            self._gather_passes(by_map, draws)
         with self._timed("normals"):
-            self._normal_passes(by_map)
+            self._normal_passes(by_map, draws)
 
     def measure_passes(
         self,
@@ -468,14 +469,14 @@ class Carver:
         )
 
     def _pose_uniforms(self, mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
-        """`model_uniforms` and `swept_uniforms` of a body posed at `model`, kept for the rest
-        of the batch being planned: a burst's hits share a target and often a tool's pose."""
+        """`pose_uniforms` of a body posed at `model`, kept for the rest of the batch being
+        planned: a burst's hits share a target and often a tool's pose."""
         key = (id(mesh), np.asarray(model, dtype=np.float64).tobytes())
         found = self._posed.get(key)
         if found is None or found[0] is not mesh:
             if len(self._posed) >= POSES_KEPT:
                 self._posed.clear()
-            found = (mesh, {**model_uniforms(model), **swept_uniforms(mesh, model)})
+            found = (mesh, pose_uniforms(mesh, model))
             self._posed[key] = found
         return found[1]
 
@@ -526,14 +527,15 @@ class Carver:
         self._quad_vaos[prog.glo].render(moderngl.TRIANGLE_STRIP, vertices=4)
 
     # -- pass 5 --------------------------------------------------------------------------------
-    def _normal_passes(self, jobs: list[CarveJob]) -> None:
-        """Pass 5 of `jobs` (sorted by the map they dent) over their footprints' texels and the
-        ring beside them: the state applied once, each map's framebuffer bound once."""
+    def _normal_passes(self, jobs: list[CarveJob], draws: list[list[tuple]]) -> None:
+        """Pass 5 of `jobs` (sorted by the map they dent; `draws`: each one's `_texel_draws`)
+        over their footprints' texels and the ring beside them: the state applied once, each
+        map's framebuffer bound once."""
         items: list[tuple] = []
-        for job in jobs:
+        for job, texel_draws in zip(jobs, draws, strict=True):
             cam, maps = job.camera, job.target.maps
             uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
-            for kind, draw, own in self._texel_draws(job):
+            for kind, draw, own in texel_draws:
                 pass_ = self._texel["normals", kind, False]
                 values = {**uniforms, **own} if own else uniforms
                 items.append(
@@ -542,11 +544,12 @@ class Carver:
         self._texture_space(items)
 
     # -- pass 4 --------------------------------------------------------------------------------
-    def _gather_passes(self, jobs: list[CarveJob]) -> None:
-        """Pass 4 of `jobs` (sorted by the map they dent): the state applied once (every variant
-        has the same), each map's framebuffer bound once."""
+    def _gather_passes(self, jobs: list[CarveJob], draws: list[list[tuple]]) -> None:
+        """Pass 4 of `jobs` (sorted by the map they dent; `draws`: each one's `_texel_draws`):
+        the state applied once (every variant has the same), each map's framebuffer bound
+        once."""
         items: list[tuple] = []
-        for job in jobs:
+        for job, texel_draws in zip(jobs, draws, strict=True):
             cam, maps = job.camera, job.target.maps
             px, py = cam.pixel_metres
             uniforms = {
@@ -554,11 +557,11 @@ class Carver:
                 **clip_uniforms(cam, maps, cam.slab),
                 "u_min_height": -maps.max_dent_depth,
                 "u_ceiling": maps.max_height,
-                "u_pixel_diagonal": float(np.hypot(px, py)),
+                "u_pixel_diagonal": math.hypot(px, py),
             }
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
-            for kind, draw, own in self._texel_draws(job):
+            for kind, draw, own in texel_draws:
                 key = ("gather", kind, bool(uniforms["u_swept"]), job.oblique, job.convex)
                 values = {**uniforms, **own} if own else uniforms
                 items.append((self._texel[key], maps.height_fbo, maps.size, draw, textures, values))

@@ -147,33 +147,46 @@ def clip_uniforms(
 VARIANT_KEYS = frozenset({"u_swept", "u_quad"})
 
 
-def swept_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
+def swept_uniforms(
+    mesh: Mesh, model: NDArray[np.float64], inverse: NDArray[np.float64] | None = None
+) -> dict[str, object]:
     """A built-in sphere or capsule's own solid (world metres) for the passes that put points on
     its smooth surface; other meshes keep their facets (`u_swept` false). `u_swept` picks the
-    passes' SWEPT variant and `u_quad` their QUAD variant; the programs have neither uniform."""
+    passes' SWEPT variant and `u_quad` their QUAD variant; the programs have neither uniform.
+    `inverse`: the inverse of the pose's linear part, where the caller has it."""
     bound = mesh.bound
-    if bound is None or bound.segment is None or not is_swept(mesh):
+    if bound is None or bound.segment is None or not bound.exact:
         return {"u_swept": False}
     m = np.asarray(model, dtype=np.float64)
-    ends = bound.segment @ m[:3, :3].T + m[:3, 3]
+    linear = m[:3, :3]
+    ends = bound.segment @ linear.T + m[:3, 3]
+    if inverse is None:
+        inverse = inverse3(linear)
     # The solid's radius scales with the pose's largest column (a rotation times a scale).
-    scale = column_scale(m[:3, :3])
     uniforms: dict[str, object] = {
         "u_swept": True,
-        "u_swept_a": tuple(ends[0]),
-        "u_swept_b": tuple(ends[1]),
-        "u_swept_radius": bound.radius * scale,
+        "u_swept_a": tuple(ends[0].tolist()),
+        "u_swept_b": tuple(ends[1].tolist()),
+        "u_swept_radius": bound.radius * column_scale(linear),
         # Passes 2 and 3 draw a sphere (QUAD 1) or a capsule (QUAD 2) as one quad.
-        "u_quad": quad_kind(mesh),
-        "u_swept_local": inverse3(m[:3, :3]).T.astype("f4").tobytes(),  # column-major
+        "u_quad": bound.quad,
+        "u_swept_local": inverse.astype("f4").tobytes(order="F"),  # local from world, column-major
     }
-    if uniforms["u_quad"] == 1 and bound.grid > 0:  # cube_grid.glsl: passes 4 and 5 as rects
+    if bound.quad == 1 and bound.grid > 0:  # cube_grid.glsl: passes 4 and 5 as rects
         uniforms["u_cube_grid"] = bound.grid
         uniforms["u_cube_radius"] = bound.radius
-    if uniforms["u_quad"] == 2:  # capsule_uv.glsl: local radius, half length, rows
+    if bound.quad == 2:  # capsule_uv.glsl: local radius, half length, rows
         half = float(np.linalg.norm(bound.segment[1] - bound.segment[0])) / 2
         uniforms["u_capsule"] = (bound.radius, half, float(bound.rings))
     return uniforms
+
+
+def pose_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
+    """`model_uniforms` and `swept_uniforms` of `mesh` posed at `model` (one inverse of the
+    pose for both)."""
+    m = np.asarray(model, dtype=np.float64)
+    inverse = inverse3(m[:3, :3])
+    return {**model_uniforms(m, inverse), **swept_uniforms(mesh, m, inverse)}
 
 
 def is_swept(mesh: Mesh) -> bool:
@@ -183,27 +196,29 @@ def is_swept(mesh: Mesh) -> bool:
 
 
 def quad_kind(mesh: Mesh) -> int:
-    """How passes 2 and 3 may draw a built-in shape as one quad (its QUAD variant): 1 a sphere
-    (both ends of its segment one point), 2 a capsule (its atlas's profile rows known), 0 not."""
+    """How passes 2 and 3 may draw a built-in shape as one quad (its QUAD variant): 1 a sphere,
+    2 a capsule, 0 not (`Bound.quad`)."""
     bound = mesh.bound
-    if not is_swept(mesh) or bound is None or bound.segment is None:
-        return 0
-    if np.array_equal(bound.segment[0], bound.segment[1]):
-        return 1
-    return 2 if bound.rings > 0 else 0
+    return 0 if bound is None else bound.quad
 
 
 def cube_grid(mesh: Mesh) -> int:
     """A built-in sphere's cells per cube-face edge, whose chart texels passes 4 and 5 may draw
     as rectangles (RECT), or 0."""
     bound = mesh.bound
-    return bound.grid if bound is not None and quad_kind(mesh) == 1 else 0
+    return bound.grid if bound is not None and bound.quad == 1 else 0
 
 
-def model_uniforms(model: NDArray[np.float64]) -> dict[str, object]:
+def model_uniforms(
+    model: NDArray[np.float64], inverse: NDArray[np.float64] | None = None
+) -> dict[str, object]:
+    """The pose (world from local) and its normal matrix, column-major; `inverse`: the inverse
+    of its linear part, where the caller has it."""
     m = np.asarray(model, dtype=np.float64)
-    normal_matrix = inverse3(m[:3, :3]).T
+    if inverse is None:
+        inverse = inverse3(m[:3, :3])
     return {
-        "u_model": m.T.astype("f4").tobytes(),  # column-major
-        "u_normal_matrix": normal_matrix.T.astype("f4").tobytes(),
+        "u_model": m.astype("f4").tobytes(order="F"),  # column-major
+        # The normal matrix inverse.T, column-major: the inverse's rows.
+        "u_normal_matrix": inverse.astype("f4").tobytes(),
     }

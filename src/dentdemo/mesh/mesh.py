@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,6 +50,17 @@ class Bound:
     #: An open shape's material behind its faces, metres (a plate's thickness under its top face:
     #: mesh/thickness.py bounds dents by it; 0: none known, the ground).
     depth: float = 0.0
+
+    @cached_property
+    def quad(self) -> int:
+        """How the carve's camera passes may draw the shape as one quad, intersecting its solid
+        per pixel: 1 a sphere (both ends of its segment one point), 2 a capsule (its atlas's
+        profile rows known), 0 neither (a shape the swept sphere only holds, or no sphere)."""
+        if not self.exact or self.segment is None:
+            return 0
+        if np.array_equal(self.segment[0], self.segment[1]):
+            return 1
+        return 2 if self.rings > 0 else 0
 
 
 @dataclass
