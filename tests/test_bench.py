@@ -87,6 +87,29 @@ def test_bench_tiny_json_schema(gl, tmp_path):
     assert "GPU ms/hit" in result.stdout and data["machine"]["renderer"] in result.stdout
 
 
+def test_the_frame_table_times_planning_inside_the_carve(gl):
+    """The sandbox frame table's planning per hit: the time of every `Carver.plan` call the
+    frames made (counted here by a second wrapper), a part of the carve's own time, never more."""
+    from dentdemo.bench import run as bench_run
+
+    calls = []
+    make = bench_run._plan_clock
+
+    def counted(carver):  # noqa: ANN001, ANN202
+        spent = make(carver)
+        plan = carver.plan
+        carver.plan = lambda *args: calls.append(args) or plan(*args)
+        return spent
+
+    bench_run._plan_clock = counted
+    try:
+        (row,) = bench_run.frame_times(gl, [12], 45, size=(64, 48))
+    finally:
+        bench_run._plan_clock = make
+    assert row["hits"] > 0 and len(calls) == row["hits"]  # one plan a hit carved
+    assert 0.0 < row["plan_ms_per_hit"] <= row["carve_ms_per_hit"]
+
+
 def test_bench_window_measures_the_real_window(xvfb, tmp_path):
     """`bench --window` runs the interactive window (wall-clock stepping, panel on) per preset
     and body count: one row each, at the window's own 1280 x 720 framebuffer, the body count

@@ -313,7 +313,8 @@ def frame_times(
 ) -> list[dict]:
     """Sandbox frames through the frame loop (physics step, carves, render at `size`) with N
     bodies dropped on plates; each phase ends with glFinish so that its time is its own. Besides
-    the medians a frame: the carve's ms over all the frames and per hit carved in them."""
+    the medians a frame: the carve's ms over all the frames and per hit carved in them, and of
+    that the planning's (pass 1, `Carver.plan`, on the CPU) per hit."""
     from dentdemo.app.controller import DemoController
     from dentdemo.app.loop import FrameLoop, ImageBackend
 
@@ -324,6 +325,7 @@ def frame_times(
         drop_balls(app, count)
         loop = FrameLoop(app, ImageBackend(size, None), fixed_dt=True)
         hits_before = app.sim.stats.hits
+        planning = _plan_clock(app.sim.carver)
         timings = [loop.frame(measure=True) for _ in range(frames)]
         hits = app.sim.stats.hits - hits_before
         physics = [t.physics_ms for t in timings]
@@ -342,11 +344,29 @@ def frame_times(
                 "hits": hits,
                 "carve_ms_total": sum(carve),
                 "carve_ms_per_hit": sum(carve) / hits if hits else None,
+                "plan_ms_per_hit": planning[0] * 1e3 / hits if hits else None,
             }
         )
         app.close()
         tick()
     return out
+
+
+def _plan_clock(carver: Carver) -> list[float]:
+    """Seconds of wall time `carver.plan` takes from now on, summed in the list's one item (the
+    instance's method wrapped: the carve calls it for every hit it carves)."""
+    spent = [0.0]
+    plan = carver.plan
+
+    def timed(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202 - plan's own
+        start = time.perf_counter()
+        try:
+            return plan(*args, **kwargs)
+        finally:
+            spent[0] += time.perf_counter() - start
+
+    carver.plan = timed  # type: ignore[method-assign]
+    return spent
 
 
 #: Frames the window runs before its frames are timed (shader compiles, first carves).
