@@ -359,7 +359,8 @@ class Carver:
         if record is not None and self.undo_log is not None:
             self.undo_log.record(record)
         by_map = sorted(jobs, key=lambda job: id(job.target.maps))  # one map's draws together
-        draws = [list(self._texel_draws(job)) for job in by_map]  # passes 4 and 5 draw the same
+        rects, quad = self.rect_texels_per_triangle, self._draw_quad
+        draws = [list(_texel_draws(job, rects, quad)) for job in by_map]  # passes 4 and 5 share
         with self._timed("gather"):
             self._gather_passes(by_map, draws)
         with self._timed("normals"):
@@ -515,10 +516,6 @@ class Carver:
             for variant, items in variants.items():
                 for item in items:
                     one(self._surface[variant], *item)
-
-    def _texel_draws(self, job: CarveJob) -> Iterator[tuple]:
-        """`_texel_draws` of `job` under this carver's settings."""
-        return _texel_draws(job, self.rect_texels_per_triangle, self._draw_quad)
 
     def _draw_quad(self, prog: moderngl.Program) -> None:
         """quad.vert's four corners (no vertex data)."""
