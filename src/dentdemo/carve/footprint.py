@@ -227,15 +227,13 @@ class Projected:
         the view line through any x, y meets a front face before (and a back face after) any
         other point, so the others hold no extreme; an open shape keeps all of its faces."""
         faces, bound = self._faces, self._mesh.bound
-        assert faces is not None and bound is not None and bound.triangles is not None
+        assert faces is not None and bound is not None and bound.outward is not None
         if not self.solid:
             return faces
-        # The outward normal's s (a positive multiple): the local one (faces wind
-        # counter-clockwise seen from outside) along the camera's s. Unlike `faces_away`, not
-        # turned over by a mirroring pose: a mirror moves the solid, not which side is out.
-        local = bound.triangles
-        normal = np.cross(local[:, 1] - local[:, 0], local[:, 2] - local[:, 0])
-        s = normal @ self._local_axes[2]
+        # The outward normal's s (a positive multiple): the local one along the camera's s.
+        # Unlike `faces_away`, not turned over by a mirroring pose: a mirror moves the solid,
+        # not which side is out.
+        s = bound.outward @ self._local_axes[2]
         return faces[s <= 0.0] if front else faces[s >= 0.0]
 
     def slab_part(self, rect: Rect, lo: float, hi: float) -> Rect | None:

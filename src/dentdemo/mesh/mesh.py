@@ -52,6 +52,15 @@ class Bound:
     depth: float = 0.0
 
     @cached_property
+    def outward(self) -> NDArray[np.float64] | None:
+        """(k, 3) an outward normal of each of `triangles` (not unit: the cross product of its
+        edges, counter-clockwise seen from outside), or None without them."""
+        t = self.triangles
+        if t is None:
+            return None
+        return np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+
+    @cached_property
     def quad(self) -> int:
         """How the carve's camera passes may draw the shape as one quad, intersecting its solid
         per pixel: 1 a sphere (both ends of its segment one point), 2 a capsule (its atlas's
