@@ -88,8 +88,9 @@ def test_bench_tiny_json_schema(gl, tmp_path):
 
 
 def test_the_frame_table_times_planning_inside_the_carve(gl):
-    """The sandbox frame table's planning per hit: the time of every `Carver.plan` call the
-    frames made (counted here by a second wrapper), a part of the carve's own time, never more."""
+    """The sandbox frame table's planning per hit: the time of every `Carver.plan_many` call the
+    frames made (the hits they planned counted here by a second wrapper), a part of the carve's
+    own time, never more."""
     from dentdemo.bench import run as bench_run
 
     calls = []
@@ -97,8 +98,8 @@ def test_the_frame_table_times_planning_inside_the_carve(gl):
 
     def counted(carver):  # noqa: ANN001, ANN202
         spent = make(carver)
-        plan = carver.plan
-        carver.plan = lambda *args: calls.append(args) or plan(*args)
+        plan_many = carver.plan_many
+        carver.plan_many = lambda presses: calls.extend(presses) or plan_many(presses)
         return spent
 
     bench_run._plan_clock = counted

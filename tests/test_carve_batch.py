@@ -358,3 +358,119 @@ def test_a_batch_binds_each_map_once_a_pass(gl, monkeypatch):
     finally:
         carver.release()
         bodies.release()
+
+
+def _posed_spheres(mesh, model, origin, axes, clusters: bool):
+    """The triangles' (or clusters') bounding spheres in camera coordinates, from their
+    definition: world = model (local), camera = axes (world - origin), radii scaled by the
+    pose's uniform scale."""
+    if clusters:
+        centre, radius, _ = mesh.clusters()
+    else:
+        centre, radius = mesh.triangle_spheres()
+    world = centre @ model[:3, :3].T + model[:3, 3]
+    scale = np.linalg.norm(model[:3, 0])
+    return (world - origin) @ axes.T, radius * scale
+
+
+def _meets_box(centre, radius, rect, slab) -> np.ndarray:
+    x, y, s = centre.T
+    return (
+        (x + radius >= rect.x0)
+        & (x - radius <= rect.x1)
+        & (y + radius >= rect.y0)
+        & (y - radius <= rect.y1)
+        & (s + radius >= slab[0])
+        & (s - radius <= slab[1])
+    )
+
+
+@pytest.mark.parametrize("exact", [True, False], ids=["triangles", "clusters"])
+@pytest.mark.parametrize("seed", range(3))
+def test_a_batchs_triangle_lists_are_each_querys_own(seed: int, exact: bool) -> None:
+    """`meeting_many` over a batch of queries (five meshes, poses turned, scaled and mirrored,
+    boxes of 5 mm to 40 cm, open-ended slabs) gives each query the triangles whose bounding
+    sphere meets its box, worked out here over every triangle from the definition (with
+    `exact` False: every triangle of each cluster whose sphere meets it), and the same as that
+    query alone."""
+    from dentdemo.carve.footprint import Projected, Rect, meeting_many
+
+    rng = np.random.default_rng(seed)
+    meshes = [
+        press_mesh(Sphere(0.05), 1),
+        press_mesh(Capsule(0.03, 0.1), 1),
+        press_mesh(Box((0.2, 0.1, 0.3)), 2),
+        press_mesh(Plate(1.0), 2),
+        press_mesh(Cylinder(0.05, 0.2), 1),
+    ]
+    queries, expected = [], []
+    for k in range(14):
+        mesh = meshes[k % len(meshes)]
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        model = np.eye(4)
+        model[:3, :3] = q * rng.uniform(0.5, 2.0)  # a rotation or a mirror, times a scale
+        model[:3, 3] = rng.normal(scale=0.2, size=3)
+        axes, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        axes = axes.T  # rows: right, up, forward
+        origin = model[:3, 3] + rng.normal(scale=0.05, size=3)
+        projected = Projected(mesh, model, origin, axes)
+        cx, cy = rng.normal(scale=0.05, size=2)
+        hx, hy = rng.uniform(0.005, 0.2, size=2)
+        rect = Rect(cx - hx, cx + hx, cy - hy, cy + hy)
+        lo = rng.uniform(-0.2, 0.05)
+        slab = (lo, np.inf) if k % 4 == 3 else (lo, lo + rng.uniform(0.001, 0.1))
+        queries.append((projected, rect, slab))
+        centre, radius = _posed_spheres(mesh, model, origin, axes, clusters=not exact)
+        near = _meets_box(centre, radius, rect, slab)
+        if exact:
+            expected.append(np.flatnonzero(near))
+        else:
+            members = mesh.clusters()[2][near].ravel()
+            expected.append(np.sort(members[members >= 0]))
+    found = meeting_many(queries, exact)
+    assert sum(len(e) for e in expected) > 50  # the boxes meet triangles
+    assert sum(len(e) == 0 for e in expected) >= 1  # and some meet none
+    for query, got, want in zip(queries, found, expected, strict=True):
+        assert np.array_equal(np.sort(got), want)
+        (alone,) = meeting_many([query], exact)
+        assert np.array_equal(alone, got)
+
+
+def test_plan_many_keeps_each_presses_directions(gl) -> None:
+    """`plan_many` of a batch that mixes good presses with a contact direction holding NaN, a
+    zero direction, a press with no tool depth (one direction), a press whose ball was moved a
+    metre away (none), a negative target depth (the tool's direction only) and a press given
+    twice: each press gets the directions its own geometry gives, in order, with the cameras
+    it gets when planned alone."""
+    bodies = Bodies(gl)
+    carver = Carver(gl)
+    try:
+        plate, balls = _scene(bodies, 4)
+        good = _presses(plate, balls, SPOTS[:4], [0.004, 0.005, 0.006, 0.003])
+        balls[3].model = translation((5.0, 3.0, 5.0))  # good[3]'s ball, far from the plate
+        origin = np.zeros(3)
+        presses = [
+            good[0],
+            (plate, balls[1], ContactFrame(origin, np.array([np.nan, -1.0, 0.0])), 0.004, 0.001),
+            good[1],
+            (plate, balls[1], ContactFrame(origin, np.zeros(3)), 0.004, 0.001),
+            (*good[2][:4], 0.0),
+            good[3],
+            (*good[0][:3], -0.004, 0.001),
+            good[0],
+        ]
+        planned = carver.plan_many(presses)
+        assert [len(jobs) for jobs in planned] == [2, 0, 2, 0, 1, 0, 1, 2]
+        assert planned[4][0].target is plate and planned[6][0].target is balls[0]
+        for jobs, press in zip(planned, presses, strict=True):
+            alone = carver.plan(*press)
+            assert len(jobs) == len(alone)
+            for a, b in zip(jobs, alone, strict=True):
+                assert a.target is b.target and a.tool is b.tool
+                assert np.array_equal(a.camera.eye, b.camera.eye)
+                assert a.camera.resolution == b.camera.resolution
+                assert np.array_equal(a.camera.target_texels, b.camera.target_texels)
+                assert np.array_equal(a.camera.tool_view, b.camera.tool_view)
+    finally:
+        carver.release()
+        bodies.release()

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import CarveBody, CarveJob
+from dentdemo.carve.carver import CarveBody
 from dentdemo.carve.carver import Carver as _Carver
 from dentdemo.carve.surface import (
     MAX_MAP_SIZE,
@@ -401,11 +401,18 @@ class Carver:
             assert isinstance(contact, Contact)
             checked.append((target, tool, contact, depth_m, tool_m))
         carver = self._live()
-        planned: list[list[CarveJob]] = []
-        for target, tool, contact, depth_m, tool_m in checked:
-            frame = ContactFrame(contact.point, contact.direction)
-            bodies = (target._body("target"), tool._body("tool"))
-            planned.append(carver.plan(*bodies, frame, depth_m, tool_m))
+        planned = carver.plan_many(
+            [
+                (
+                    target._body("target"),
+                    tool._body("tool"),
+                    ContactFrame(contact.point, contact.direction),
+                    depth_m,
+                    tool_m,
+                )
+                for target, tool, contact, depth_m, tool_m in checked
+            ]
+        )
         carver.carve_hits(planned)
         return [bool(jobs) for jobs in planned]
 

@@ -177,7 +177,7 @@ def burst(
 
             def batched(presses=presses, split=split) -> None:
                 start = time.perf_counter()
-                planned = [carver.plan(*press) for press in presses]
+                planned = carver.plan_many(presses)
                 planning = time.perf_counter()
                 carver.carve_hits(planned)
                 submitted = time.perf_counter()
@@ -314,7 +314,7 @@ def frame_times(
     """Sandbox frames through the frame loop (physics step, carves, render at `size`) with N
     bodies dropped on plates; each phase ends with glFinish so that its time is its own. Besides
     the medians a frame: the carve's ms over all the frames and per hit carved in them, and of
-    that the planning's (pass 1, `Carver.plan`, on the CPU) per hit."""
+    that the planning's (pass 1, `Carver.plan_many`, on the CPU) per hit."""
     from dentdemo.app.controller import DemoController
     from dentdemo.app.loop import FrameLoop, ImageBackend
 
@@ -353,19 +353,19 @@ def frame_times(
 
 
 def _plan_clock(carver: Carver) -> list[float]:
-    """Seconds of wall time `carver.plan` takes from now on, summed in the list's one item (the
-    instance's method wrapped: the carve calls it for every hit it carves)."""
+    """Seconds of wall time `carver.plan_many` takes from now on, summed in the list's one item
+    (the instance's method wrapped: the carve plans each batch's hits with it)."""
     spent = [0.0]
-    plan = carver.plan
+    plan_many = carver.plan_many
 
-    def timed(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202 - plan's own
+    def timed(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202 - plan_many's own
         start = time.perf_counter()
         try:
-            return plan(*args, **kwargs)
+            return plan_many(*args, **kwargs)
         finally:
             spent[0] += time.perf_counter() - start
 
-    carver.plan = timed  # type: ignore[method-assign]
+    carver.plan_many = timed  # type: ignore[method-assign]
     return spent
 
 

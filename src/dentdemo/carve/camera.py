@@ -12,13 +12,14 @@ reaches the texels beside the dent, and never the whole body.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.carve.constants import MIN_COS, RING_TEXELS, SLAB_MARGIN_TEXELS
-from dentdemo.carve.footprint import Overlap, Projected, Rect, overlap
+from dentdemo.carve.footprint import Overlap, Projected, Query, Rect, meeting_many, overlap
 from dentdemo.carve.linear import column_scale, inverse3
 from dentdemo.mesh.mesh import Mesh
 
@@ -131,7 +132,40 @@ def collision_camera(
     the passes' triangle lists whole clusters (less CPU, more triangles for the GPU to clip).
     `advance`: how far the tool was moved along the press from first touch, metres.
     `tool_list` False: pass 3 draws the tool without a triangle list (a sphere as one quad).
+    `collision_cameras` makes the cameras of a batch of presses together.
     """
+    draft = camera_draft(target, tool, map_size, contact, max_resolution, loose, advance, tool_list)
+    return collision_cameras([draft], exact_lists)[0]
+
+
+@dataclass(frozen=True)
+class CameraDraft:
+    """A collision camera but for its triangle lists, which `collision_cameras` finds for a
+    batch's cameras together: the posed meshes, the view rectangle, and the s ranges of the
+    target's triangles and, where pass 3 draws a list of the tool's, of the tool's."""
+
+    target: BodyPose
+    target_tris: Projected
+    tool_tris: Projected
+    view: Rect
+    texel_slab: tuple[float, float]
+    tool_slab: tuple[float, float] | None
+    #: Every field of the camera but `tool_view`, `target_texels` and `target_gutter`.
+    fields: dict[str, object]
+
+
+def camera_draft(
+    target: BodyPose,
+    tool: BodyPose,
+    map_size: tuple[int, int],
+    contact: ContactFrame,
+    max_resolution: int,
+    loose: bool = False,
+    advance: float = 0.0,
+    tool_list: bool = True,
+) -> CameraDraft | None:
+    """`collision_camera` up to its triangle lists (the same arguments); None when the bodies
+    cannot overlap."""
     model = np.asarray(target.model, dtype=np.float64)
     linear = model[:3, :3]
     forward = _unit(np.asarray(contact.direction, dtype=np.float64))
@@ -203,32 +237,66 @@ def collision_camera(
     # faces that reach past the slab's near side (two pixels more for the bilinear neighbours at
     # the rim): a front face nearer than that is nearer than every target surface pass 2 keeps,
     # so leaving it out drops nothing that pass 2 or 4 would test against it.
-    (texels,) = target_tris.meeting_slabs(view, [(gather[0] - ring, gather[1] + ring)], exact_lists)
-    tool_view = np.zeros(0, dtype=np.int64)
-    if tool_list:
-        (tool_view,) = tool_tris.meeting_slabs(
-            view, [(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf)], exact_lists
-        )
-    # An open body (a plate) has material on one side only: an open tool pushes only with faces
-    # turned away from the view, an open target takes dents only in faces turned towards it.
-    if not tool_tris.solid and not tool_tris.faces_away(tool_view):
-        return None
-    if not target_tris.solid and not target_tris.faces_away(texels, away=False):
-        return None
-    return CollisionCamera(
-        eye=eye,
-        right=right,
-        up=up,
-        forward=forward,
-        half_extent=(half_x, half_y),
-        depth_range=(0.0, far_s - near_s),
-        resolution=(int(cols), int(rows)),
-        slab=(gather[0] - near_s, gather[1] - near_s),
-        texel_metres=texel,
-        tool_view=tool_view,
-        target_texels=texels,
-        target_gutter=texels[target.mesh.chart_border()[texels]],
+    return CameraDraft(
+        target=target,
+        target_tris=target_tris,
+        tool_tris=tool_tris,
+        view=view,
+        texel_slab=(gather[0] - ring, gather[1] + ring),
+        tool_slab=(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf) if tool_list else None,
+        fields={
+            "eye": eye,
+            "right": right,
+            "up": up,
+            "forward": forward,
+            "half_extent": (half_x, half_y),
+            "depth_range": (0.0, far_s - near_s),
+            "resolution": (int(cols), int(rows)),
+            "slab": (gather[0] - near_s, gather[1] - near_s),
+            "texel_metres": texel,
+        },
     )
+
+
+def collision_cameras(
+    drafts: Sequence[CameraDraft | None], exact_lists: bool = True
+) -> list[CollisionCamera | None]:
+    """The cameras of `drafts` (None stays None), their triangle lists found together
+    (`footprint.meeting_many`: the cluster tests of a batch's hits in one set of array
+    operations); None also where an open body has no face that can take part."""
+    queries: list[Query] = []
+    for draft in drafts:
+        if draft is not None:
+            queries.append((draft.target_tris, draft.view, draft.texel_slab))
+            if draft.tool_slab is not None:
+                queries.append((draft.tool_tris, draft.view, draft.tool_slab))
+    lists = iter(meeting_many(queries, exact_lists))
+    cameras: list[CollisionCamera | None] = []
+    for draft in drafts:
+        if draft is None:
+            cameras.append(None)
+            continue
+        texels = next(lists)
+        tool_view = next(lists) if draft.tool_slab is not None else np.zeros(0, dtype=np.int64)
+        # An open body (a plate) has material on one side only: an open tool pushes only with
+        # faces turned away from the view, an open target takes dents only in faces turned
+        # towards it.
+        tool_tris, target_tris = draft.tool_tris, draft.target_tris
+        if (not tool_tris.solid and not tool_tris.faces_away(tool_view)) or (
+            not target_tris.solid and not target_tris.faces_away(texels, away=False)
+        ):
+            cameras.append(None)
+            continue
+        border = draft.target.mesh.chart_border()
+        cameras.append(
+            CollisionCamera(
+                **draft.fields,  # type: ignore[arg-type]
+                tool_view=tool_view,
+                target_texels=texels,
+                target_gutter=texels[border[texels]],
+            )
+        )
+    return cameras
 
 
 def _loose(target: Projected, tool: Projected, bound: Overlap) -> Overlap:

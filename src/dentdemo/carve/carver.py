@@ -16,7 +16,14 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo.carve.camera import BodyPose, CollisionCamera, ContactFrame, collision_camera
+from dentdemo.carve.camera import (
+    BodyPose,
+    CameraDraft,
+    CollisionCamera,
+    ContactFrame,
+    camera_draft,
+    collision_cameras,
+)
 from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
 from dentdemo.carve.linear import inverse3
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps
@@ -332,7 +339,7 @@ class Carver:
         heights from before the batch, each pass runs once for all hits, and where two hits dent
         the same texels the deeper wins (MIN). A batch whose cameras do not fit the atlas
         together is carved as consecutive batches. Returns the directions carved."""
-        return self.carve_hits([self.plan(*press) for press in presses])
+        return self.carve_hits(self.plan_many(presses))
 
     def carve_hits(self, hits: list[list[CarveJob]]) -> list[CarveJob]:
         """Passes 2-5 of planned hits (each its list of directions) as one batch (see
@@ -417,39 +424,72 @@ class Carver:
         """The directions of a hit with a positive finite depth: the target dented by the tool,
         then the tool by the target (moving the other way). Bad contact frames and presses whose
         bodies cannot meet give none."""
-        direction = np.asarray(contact.direction, dtype=np.float64)
-        norm = float(np.linalg.norm(direction))
-        point = np.asarray(contact.point, dtype=np.float64)
-        if not (np.isfinite(norm) and norm > 1e-12) or not np.all(np.isfinite(point)):
-            return []
-        direction = direction / norm
-        jobs: list[CarveJob] = []
-        for body, other, frame, depth in (
-            (target, tool, ContactFrame(point, direction), target_depth),
-            (tool, target, ContactFrame(point, -direction), tool_depth),
-        ):
-            if np.isfinite(depth) and depth > 0.0:
-                job = self._job(body, other, frame, float(depth))
-                if job is not None:
-                    jobs.append(job)
-        return jobs
+        return self.plan_many([(target, tool, contact, target_depth, tool_depth)])[0]
 
-    def _job(
-        self, target: CarveBody, tool: CarveBody, contact: ContactFrame, depth: float
-    ) -> CarveJob | None:
-        advanced = np.array(tool.model, dtype=np.float64)
-        advanced[:3, 3] += contact.direction * depth  # the tool advances by the dent depth
-        camera = collision_camera(
+    def plan_many(self, presses: Sequence[Press]) -> list[list[CarveJob]]:
+        """`plan` of each press, the triangle lists of all their cameras found together
+        (`camera.collision_cameras`)."""
+        directions: list[tuple[CarveBody, CarveBody, ContactFrame, float, NDArray[np.float64]]]
+        directions = []
+        counts: list[int] = []
+        for target, tool, contact, target_depth, tool_depth in presses:
+            before = len(directions)
+            direction = np.asarray(contact.direction, dtype=np.float64)
+            norm = float(np.linalg.norm(direction))
+            point = np.asarray(contact.point, dtype=np.float64)
+            if np.isfinite(norm) and norm > 1e-12 and np.all(np.isfinite(point)):
+                direction = direction / norm
+                for body, other, frame, depth in (
+                    (target, tool, ContactFrame(point, direction), target_depth),
+                    (tool, target, ContactFrame(point, -direction), tool_depth),
+                ):
+                    if np.isfinite(depth) and depth > 0.0:
+                        advanced = np.array(other.model, dtype=np.float64)
+                        advanced[:3, 3] += frame.direction * depth  # the tool advances
+                        directions.append((body, other, frame, float(depth), advanced))
+            counts.append(len(directions) - before)
+        drafts = [self._draft(*direction) for direction in directions]
+        cameras = iter(collision_cameras(drafts, self.exact_lists))
+        found = [
+            self._job(target, tool, depth, advanced, next(cameras))
+            for target, tool, _, depth, advanced in directions
+        ]
+        out: list[list[CarveJob]] = []
+        start = 0
+        for count in counts:
+            out.append([job for job in found[start : start + count] if job is not None])
+            start += count
+        return out
+
+    def _draft(
+        self,
+        target: CarveBody,
+        tool: CarveBody,
+        contact: ContactFrame,
+        depth: float,
+        advanced: NDArray[np.float64],
+    ) -> CameraDraft | None:
+        """Pass 1 of one direction up to its triangle lists: the tool at `advanced` (moved by the
+        dent `depth` along the press)."""
+        return camera_draft(
             target.pose(),
             tool.pose(advanced),
             target.maps.size,
             contact,
             self.max_resolution,
             loose=self.loose_camera,
-            exact_lists=self.exact_lists,
             advance=depth,
             tool_list=not (self.swept_quads and quad_kind(tool.gpu_mesh.mesh)),
         )
+
+    def _job(
+        self,
+        target: CarveBody,
+        tool: CarveBody,
+        depth: float,
+        advanced: NDArray[np.float64],
+        camera: CollisionCamera | None,
+    ) -> CarveJob | None:
         if camera is None:
             return None
         view = camera_uniforms(camera)

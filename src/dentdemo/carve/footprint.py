@@ -14,6 +14,7 @@ that exact test, so a hit's CPU work follows the triangles near the footprint.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -247,6 +248,74 @@ class Projected:
         if len(which) == 0:
             return None
         return slab_rect(self.corners(which), lo, hi)
+
+
+#: One triangle-list query of a batch: a posed mesh, the camera rectangle and the s range whose
+#: box the triangles' bounding spheres must meet (`meeting_many`).
+Query = tuple[Projected, Rect, tuple[float, float]]
+
+
+def meeting_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
+    """`Projected.meeting(rect, slab)` of each query (with `exact` False, of whole clusters, as
+    `meeting_slabs`), the box tests of a batch's queries made together: each query's cluster
+    spheres, then those of the triangles of its clusters that pass, are put in camera
+    coordinates as `meeting_slabs` does, and all of them tested against their own query's box
+    in one set of array operations. A query's result does not depend on the others (each row is
+    tested against its own box); numpy's cost per call, much of a query's on a mesh of a few
+    thousand triangles, is paid once a batch for the tests."""
+    if not queries:
+        return []
+    boxes = np.array(
+        [(rect.x0, rect.x1, rect.y0, rect.y1, lo, hi) for _, rect, (lo, hi) in queries]
+    )
+    clusters = [q[0]._clusters for q in queries]
+    near = _split(
+        _meets_boxes(
+            np.concatenate([c[0] for c in clusters]),
+            np.concatenate([c[1] for c in clusters]),
+            boxes,
+            sizes := [len(c[1]) for c in clusters],
+        ),
+        sizes,
+    )
+    if not exact:
+        return [_valid(c[2][groups]) for c, groups in zip(clusters, near, strict=True)]
+    # The triangles of the clusters that pass, whole rows at once (padding is NaN: never meets).
+    members: list[Indices] = []
+    centres: list[Array] = []
+    radii: list[Array] = []
+    for (projected, _, _), (_, _, all_members), groups in zip(queries, clusters, near, strict=True):
+        local, radius = projected._mesh.cluster_members_spheres()
+        members.append(all_members[groups].ravel())
+        centres.append(projected._to_camera(local[groups].reshape(-1, 3)))
+        radii.append(radius[groups].ravel() * projected._scale)
+    sizes = [len(m) for m in members]
+    keep = _split(_meets_boxes(np.concatenate(centres), np.concatenate(radii), boxes, sizes), sizes)
+    return [m[k] for m, k in zip(members, keep, strict=True)]
+
+
+def _meets_boxes(centre: Array, radius: Array, boxes: Array, sizes: list[int]) -> NDArray[np.bool_]:
+    """Whether each sphere meets its box (x0, x1, y0, y1, s0, s1): the first sizes[0] spheres
+    the first of `boxes`, and so on; NaN never meets."""
+    b = np.repeat(boxes, sizes, axis=0)
+    return (
+        (centre[:, 0] + radius >= b[:, 0])
+        & (centre[:, 0] - radius <= b[:, 1])
+        & (centre[:, 1] + radius >= b[:, 2])
+        & (centre[:, 1] - radius <= b[:, 3])
+        & (centre[:, 2] + radius >= b[:, 4])
+        & (centre[:, 2] - radius <= b[:, 5])
+    )
+
+
+def _split(keep: NDArray[np.bool_], sizes: list[int]) -> list[NDArray[np.bool_]]:
+    """`keep` cut into consecutive parts of `sizes`."""
+    out = []
+    start = 0
+    for size in sizes:
+        out.append(keep[start : start + size])
+        start += size
+    return out
 
 
 def _faces_extreme(faces: Array, rect: Rect, lowest: bool) -> float | None:
