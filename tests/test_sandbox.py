@@ -170,6 +170,41 @@ def test_panel_actions_through_the_controller(gl, tmp_path):
     app.close()
 
 
+def test_the_frame_loop_freezes_the_loaded_scene_and_a_reset_collects_the_old(gl):
+    """Once a frame loop starts, what is alive (the loaded scene among it) is frozen out of the
+    garbage collector's scans (app/heap.py): a cycle made before it outlives `gc.collect`, as
+    frozen objects do, and a reset, which drops the old bodies, frees it (no leak across resets);
+    frames still run."""
+    import gc
+    import weakref
+
+    from dentdemo.app.loop import FrameLoop, ImageBackend
+
+    class Node:
+        other: object = None
+
+    lib = load_materials()
+    app = DemoController(gl, load_scene(BALL_DROP, lib), lib, (64, 48))
+    try:
+        a, b = Node(), Node()
+        a.other, b.other = b, a  # a reference cycle: only the collector frees it
+        alive = weakref.ref(a)
+        gc.unfreeze()
+        assert gc.get_freeze_count() == 0
+        loop = FrameLoop(app, ImageBackend((64, 48), None), fixed_dt=True)
+        assert gc.get_freeze_count() > 10_000  # the modules, the scene, its bodies
+        del a, b
+        gc.collect()
+        assert alive() is not None  # frozen: not scanned, so not freed
+        app.reset()
+        assert alive() is None  # the reset unfroze and collected it
+        assert gc.get_freeze_count() > 10_000
+        loop.frame()
+    finally:
+        app.close()
+        gc.unfreeze()
+
+
 def test_impact_queue_never_drops_a_hit(gl):
     lib = load_materials()
     scene = load_scene(BALL_DROP, lib)

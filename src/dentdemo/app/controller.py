@@ -14,7 +14,7 @@ import moderngl
 import numpy as np
 
 from dentdemo import log
-from dentdemo.app import inputs
+from dentdemo.app import heap, inputs
 from dentdemo.app.describe import describe
 from dentdemo.app.editor import MaterialEditor, PredictedDent, predict_dent, with_preset
 from dentdemo.app.map_view import MapView
@@ -135,6 +135,7 @@ class DemoController:
                 self.scene_changed = False
                 self.message = f"reset to the new {self.scene_file}"
         self.sim.reset()
+        heap.settle()  # the old scene's cycles collected, the new one frozen (app/heap.py)
 
     # -- hot reload ----------------------------------------------------------------------------
     def watch(self, material_files: Sequence[Path], scene_file: Path | None) -> None:
@@ -273,6 +274,7 @@ class DemoController:
 
         loaded = self._with_state(load_state, directory, f"loaded {directory}/")
         if loaded:
+            heap.settle()  # as after a reset (app/heap.py)
             self.message += "; undo history is not saved: none to undo"
         return loaded
 

@@ -13,6 +13,7 @@ from typing import Protocol
 import moderngl
 
 from dentdemo import interrupt
+from dentdemo.app import heap
 from dentdemo.app.controller import DemoController
 from dentdemo.app.video import VideoFile
 from dentdemo.outputs import write_png
@@ -62,6 +63,7 @@ class FrameLoop:
         self.backend = backend
         self.fixed_dt = fixed_dt
         self.frames = 0
+        heap.settle()  # the scene is loaded: its objects out of the collector's way (app/heap.py)
         self._last = time.perf_counter()
 
     def frame(self, last: bool = False, measure: bool = False) -> FrameTiming:
