@@ -497,3 +497,42 @@ def test_chart_mask_bits_are_each_texel_and_its_neighbours(gl, bodies, kind):
     for bit, (dr, dc) in ((1, (0, -1)), (2, (0, 1)), (3, (-1, 0)), (4, (1, 0))):
         neighbour = own[1 + dr : 1 + dr + size, 1 + dc : 1 + dc + size]
         assert np.array_equal((bits >> bit) & 1, neighbour), f"bit {bit}"
+
+
+@pytest.mark.parametrize("size", [64, 97, 256])
+def test_a_new_or_repaired_body_is_flat_without_a_pass_over_its_map(gl, size):
+    """A new body's maps (and a repaired one's) come from two clears: every height exactly 0
+    and every normal texel the flat tangent-space normal (0, 0, 1), stored as
+    (0.5, 0.5, 1, 1) * 255 rounded: (128, 128, 255, 255); the same bytes pass 5 over the whole
+    map gives from zero heights, for each built-in shape and a loaded mesh."""
+    from dentdemo.carve.surface import GpuMesh, create_maps, rebuild_all_normals
+    from dentdemo.carve.undo import restore_pristine
+    from dentdemo.mesh.loader import load_mesh
+    from dentdemo.mesh.shapes import shape_mesh
+    from dentdemo.model.shapes import Cylinder
+    from dentdemo.resources import assets_dir
+
+    flat = np.array([128, 128, 255, 255], np.uint8)
+    meshes = [
+        shape_mesh(shape)
+        for shape in (Sphere(0.05), Capsule(0.03, 0.1), Box((0.2, 0.1, 0.3)), Plate(1.0))
+    ]
+    meshes += [shape_mesh(Cylinder(0.05, 0.2)), load_mesh(assets_dir() / "meshes" / "ring.obj")]
+    for mesh in meshes:
+        gpu = GpuMesh(gl, mesh)
+        maps = create_maps(gl, gpu, size, 0.01)
+        try:
+            normals = np.frombuffer(gl.read(maps.normal), np.uint8).reshape(-1, 4)
+            assert (normals == flat).all(), mesh.name
+            assert not np.frombuffer(gl.read(maps.height), np.float32).any()
+            maps.normal_fbo.clear(0.0, 0.0, 0.0, 0.0)
+            rebuild_all_normals(gl, gpu, maps)  # pass 5 over every texel, from zero heights
+            assert gl.read(maps.normal).tobytes() == normals.tobytes(), mesh.name
+            maps.height_fbo.clear(-0.004, 0.0, 0.0, 0.0)  # a body dented all over
+            maps.normal_fbo.clear(0.2, 0.7, 0.9, 1.0)
+            restore_pristine(gl, gpu, maps)
+            assert gl.read(maps.normal).tobytes() == normals.tobytes(), mesh.name
+            assert not np.frombuffer(gl.read(maps.height), np.float32).any()
+        finally:
+            maps.release()
+            gpu.release()

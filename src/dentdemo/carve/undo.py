@@ -33,7 +33,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo.carve.surface import GpuMesh, SurfaceMaps, rebuild_all_normals
+from dentdemo.carve.surface import GpuMesh, SurfaceMaps, flatten, rebuild_all_normals
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.library import gl_library
 from dentdemo.gl.state import preserved
@@ -309,13 +309,14 @@ def restore_pristine(
 ) -> None:
     """A body's maps as they started: the height map cleared to 0 on the GPU, or `heights` (the
     start map, float32 [v, u] metres, as it was first written) uploaded, and every normal
-    rebuilt. The host's GL state is left as it was."""
+    rebuilt (a pristine one: every normal flat, `surface.flatten`). The host's GL state is left
+    as it was."""
     with preserved(gl.ctx):
         if heights is None:
-            maps.height_fbo.clear(0.0, 0.0, 0.0, 0.0)
+            flatten(maps)
         else:
             maps.height.write(np.ascontiguousarray(heights, dtype=np.float32).tobytes())
-        rebuild_all_normals(gl, gpu_mesh, maps)
+            rebuild_all_normals(gl, gpu_mesh, maps)
         wait_for_writes(gl)
 
 
