@@ -17,6 +17,7 @@ def median_ms(
 ) -> tuple[float, list[float]]:
     """Median wall milliseconds of `run` (each ended by `finish`, e.g. ctx.finish)."""
     for _ in range(warmup):
+        interrupt.check()
         run()
         finish()
     times = []
@@ -37,12 +38,13 @@ def interleaved_medians(
     that a machine's drift (other load, clocks) falls on all of them alike."""
     for _ in range(warmup):
         for run in runs:
+            interrupt.check()
             run()
             finish()
     times: list[list[float]] = [[] for _ in runs]
     for _ in range(reps):
-        interrupt.check()
         for run, out in zip(runs, times, strict=True):
+            interrupt.check()
             finish()
             start = time.perf_counter()
             run()

@@ -67,8 +67,10 @@ class CpuReference:
         """CPU copies of a body's height, normal and chart mask (read once, at first use)."""
         key = id(body.maps)
         if key not in self._mirrors:
-            height = self.gl.read(body.maps.height)[:, :, 0].copy()
-            normal = self.gl.read(body.maps.normal).copy()
+            # `read` gives new arrays: the normals as they are, the height's one channel copied
+            # out contiguous.
+            height = np.ascontiguousarray(self.gl.read(body.maps.height)[:, :, 0])
+            normal = self.gl.read(body.maps.normal)
             mask = (self.gl.read(body.maps.mask)[:, :, 0] & CHART_SELF) != 0
             self._mirrors[key] = (height, normal, mask)
         return self._mirrors[key]
