@@ -114,30 +114,6 @@ def _axes(dpdu: Vec3, forward: Vec3) -> tuple[Vec3, Vec3]:
     return right, _cross(right, forward)
 
 
-def collision_camera(
-    target: BodyPose,
-    tool: BodyPose,
-    map_size: tuple[int, int],
-    contact: ContactFrame,
-    max_resolution: int,
-    loose: bool = False,
-    exact_lists: bool = True,
-    advance: float = 0.0,
-    tool_list: bool = True,
-) -> CollisionCamera | None:
-    """The camera for carving `target` by `tool` (already advanced by the dent depth) at `contact`.
-
-    None when the bodies cannot overlap. `loose` bounds the view by both bodies' bounding spheres
-    instead of the footprint (for tests of the footprint bound only). `exact_lists` False makes
-    the passes' triangle lists whole clusters (less CPU, more triangles for the GPU to clip).
-    `advance`: how far the tool was moved along the press from first touch, metres.
-    `tool_list` False: pass 3 draws the tool without a triangle list (a sphere as one quad).
-    `collision_cameras` makes the cameras of a batch of presses together.
-    """
-    draft = camera_draft(target, tool, map_size, contact, max_resolution, loose, advance, tool_list)
-    return collision_cameras([draft], exact_lists)[0]
-
-
 @dataclass(frozen=True)
 class CameraDraft:
     """A collision camera but for its triangle lists, which `collision_cameras` finds for a
@@ -164,8 +140,15 @@ def camera_draft(
     advance: float = 0.0,
     tool_list: bool = True,
 ) -> CameraDraft | None:
-    """`collision_camera` up to its triangle lists (the same arguments); None when the bodies
-    cannot overlap."""
+    """The camera for carving `target` by `tool` (already advanced by the dent depth) at
+    `contact`, up to its triangle lists (`collision_cameras` finds those of a batch's drafts
+    together); None when the bodies cannot overlap.
+
+    `loose` bounds the view by both bodies' bounding spheres instead of the footprint (for tests
+    of the footprint bound only). `advance`: how far the tool was moved along the press from
+    first touch, metres. `tool_list` False: pass 3 draws the tool without a triangle list (a
+    sphere as one quad).
+    """
     model = np.asarray(target.model, dtype=np.float64)
     linear = model[:3, :3]
     forward = _unit(np.asarray(contact.direction, dtype=np.float64))
@@ -263,7 +246,8 @@ def collision_cameras(
 ) -> list[CollisionCamera | None]:
     """The cameras of `drafts` (None stays None), their triangle lists found together
     (`footprint.meeting_many`: the cluster tests of a batch's hits in one set of array
-    operations); None also where an open body has no face that can take part."""
+    operations); None also where an open body has no face that can take part. `exact_lists`
+    False makes the lists whole clusters (less CPU, more triangles for the GPU to clip)."""
     queries: list[Query] = []
     for draft in drafts:
         if draft is not None:

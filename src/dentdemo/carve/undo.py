@@ -157,7 +157,7 @@ def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
     by_maps: dict[int, tuple[SurfaceMaps, list[Box]]] = {}
     for job in jobs:
         maps = job.target.maps
-        # The gutter's triangles are among the texels' (`collision_camera`): so are their boxes.
+        # The gutter's triangles are among the texels' (`collision_cameras`): so are their boxes.
         boxes = [grown(box, MARGIN, maps.size) for box in footprint_boxes(job)]
         by_maps.setdefault(id(maps), (maps, []))[1].extend(boxes)
     return [(maps, merged_rects(found)) for maps, found in by_maps.values()]
