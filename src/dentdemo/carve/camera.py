@@ -91,25 +91,51 @@ class BodyPose:
     texel_metres: float = 0.0
 
 
-def _length(v: Vec3) -> float:
-    return math.sqrt(float(v @ v))
+#: A 3-vector as Python floats: the few vectors of a camera's frame are worked out on floats,
+#: which cost less per operation than numpy calls on arrays of three.
+Floats3 = tuple[float, float, float]
 
 
-def _unit(v: Vec3) -> Vec3:
-    return v / max(_length(v), 1e-30)
+def _floats(v: object) -> Floats3:
+    x, y, z = np.asarray(v, dtype=np.float64).tolist()
+    return x, y, z
 
 
-def _cross(a: Vec3, b: Vec3) -> Vec3:
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
+def _dot(a: Floats3, b: Floats3) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _axes(dpdu: Vec3, forward: Vec3) -> tuple[Vec3, Vec3]:
-    right = dpdu - (dpdu @ forward) * forward
+def _length(v: Floats3) -> float:
+    return math.sqrt(_dot(v, v))
+
+
+def _scaled(v: Floats3, k: float) -> Floats3:
+    return v[0] * k, v[1] * k, v[2] * k
+
+
+def _unit(v: Floats3) -> Floats3:
+    return _scaled(v, 1.0 / max(_length(v), 1e-30))
+
+
+def _cross(a: Floats3, b: Floats3) -> Floats3:
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+
+
+def _rows_times(rows: list[list[float]], v: Floats3) -> Floats3:
+    """A 3 x 3 matrix (its rows) times a vector."""
+    return _dot(rows[0], v), _dot(rows[1], v), _dot(rows[2], v)  # type: ignore[arg-type]
+
+
+def _across(v: Floats3, unit: Floats3) -> Floats3:
+    """`v` less its part along `unit`."""
+    along = _dot(v, unit)
+    return v[0] - along * unit[0], v[1] - along * unit[1], v[2] - along * unit[2]
+
+
+def _axes(dpdu: Floats3, forward: Floats3) -> tuple[Floats3, Floats3]:
+    right = _across(dpdu, forward)
     if _length(right) < 1e-9 * max(_length(dpdu), 1e-30):
-        helper = np.array([1.0, 0.0, 0.0]) if abs(forward[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-        right = helper - (helper @ forward) * forward
+        right = _across((1.0, 0.0, 0.0) if abs(forward[0]) < 0.9 else (0.0, 0.0, 1.0), forward)
     right = _unit(right)
     return right, _cross(right, forward)
 
@@ -151,32 +177,37 @@ def camera_draft(
     """
     model = np.asarray(target.model, dtype=np.float64)
     linear = model[:3, :3]
-    forward = _unit(np.asarray(contact.direction, dtype=np.float64))
-    point = np.asarray(contact.point, dtype=np.float64)
-    local = inverse3(linear) @ (point - model[:3, 3])
-    surf = target.mesh.frame_near(local)
-    dpdu, dpdv = linear @ surf.dpdu, linear @ surf.dpdv  # world metres per uv unit
+    rows = linear.tolist()
+    forward = _unit(_floats(contact.direction))
+    point = _floats(contact.point)
+    tx, ty, tz = model[:3, 3].tolist()
+    rel = (point[0] - tx, point[1] - ty, point[2] - tz)
+    surf = target.mesh.frame_near(np.array(_rows_times(inverse3(linear).tolist(), rel)))
+    # World metres per uv unit.
+    dpdu = _rows_times(rows, _floats(surf.dpdu))
+    dpdv = _rows_times(rows, _floats(surf.dpdv))
     width, height = map_size
     right, up = _axes(dpdu, forward)
 
     # Texel pitch as the camera sees it, metres; grazing views are clamped.
     texel_u = _length(dpdu) / width
     texel_v = _length(dpdv) / height
-    pitch_x = max(abs(float(dpdu @ right)) / width, MIN_COS * texel_u)
-    pitch_y = max(abs(float(dpdv @ up)) / height, MIN_COS * texel_v)
+    pitch_x = max(abs(_dot(dpdu, right)) / width, MIN_COS * texel_u)
+    pitch_y = max(abs(_dot(dpdv, up)) / height, MIN_COS * texel_v)
     # The tool is known to its own texels only: where the target's texels are finer, a pixel spans
     # a whole number of them (pixel centres stay on texel centres) up to one of the tool's texels.
     pitch_x *= max(1, math.floor(tool.texel_metres / pitch_x))
     pitch_y *= max(1, math.floor(tool.texel_metres / pitch_y))
 
     # A pixel centre on the centre of the texel under the contact.
-    uv = surf.uv
-    centre_uv = (np.floor(uv * [width, height]) + 0.5) / [width, height]
-    origin = point + dpdu * (centre_uv[0] - uv[0]) + dpdv * (centre_uv[1] - uv[1])
+    u, v = surf.uv.tolist()
+    du = (math.floor(u * width) + 0.5) / width - u
+    dv = (math.floor(v * height) + 0.5) / height - v
+    origin = tuple(p + a * du + b * dv for p, a, b in zip(point, dpdu, dpdv, strict=True))
 
-    axes = np.stack([right, up, forward])
-    target_tris = Projected(target.mesh, model, origin, axes)
-    tool_tris = Projected(tool.mesh, tool.model, origin, axes)
+    axes = np.array([right, up, forward])
+    target_tris = Projected(target.mesh, model, np.array(origin), axes)
+    tool_tris = Projected(tool.mesh, tool.model, np.array(origin), axes)
     bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)
     if bound is None:
         return None
@@ -202,7 +233,12 @@ def camera_draft(
     bumps = sum(max(b.max_height, 0.0) + max(b.max_dent_depth, 0.0) for b in (target, tool))
     near_s = min(target_tris.s_range()[0], tool_tris.s_range()[0]) - bumps - 1e-4
     far_s = max(target_tris.s_range()[1], tool_tris.s_range()[1]) + bumps + 1e-4
-    eye = origin + right * cx + up * cy + forward * near_s
+    eye = np.array(
+        [
+            o + r * cx + w * cy + f * near_s
+            for o, r, w, f in zip(origin, right, up, forward, strict=True)
+        ]
+    )
     texel = max(texel_u, texel_v)
     half_x, half_y = cols * pitch_x / 2.0, rows * pitch_y / 2.0
     view = Rect(cx - half_x, cx + half_x, cy - half_y, cy + half_y)
@@ -229,9 +265,9 @@ def camera_draft(
         tool_slab=(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf) if tool_list else None,
         fields={
             "eye": eye,
-            "right": right,
-            "up": up,
-            "forward": forward,
+            "right": axes[0],
+            "up": axes[1],
+            "forward": axes[2],
             "half_extent": (half_x, half_y),
             "depth_range": (0.0, far_s - near_s),
             "resolution": (int(cols), int(rows)),
