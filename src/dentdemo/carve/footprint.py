@@ -156,44 +156,9 @@ class Projected:
                 self._rect = _sphere_rect(*self._clusters[:2])
         return self._rect
 
-    def meeting(self, rect: Rect, slab: tuple[float, float] | None = None) -> Indices:
-        """Triangles whose bounding sphere meets `rect` (and the s range `slab`)."""
-        return self.meeting_slabs(rect, [slab])[0]
-
-    def meeting_slabs(
-        self, rect: Rect, slabs: list[tuple[float, float] | None], exact: bool = True
-    ) -> list[Indices]:
-        """`meeting(rect, slab)` for each of `slabs`, testing the rectangle once. With `exact`
-        False, the triangles of every cluster that meets them (a superset, for a GPU that clips
-        and culls faster than the CPU can sort)."""
-        if any(slab is None for slab in slabs):
-            union: tuple[float, float] = (-np.inf, np.inf)
-        else:
-            union = (min(sl[0] for sl in slabs), max(sl[1] for sl in slabs))  # type: ignore[index]
-        c, r, all_members = self._clusters
-        groups = _meets(c, r, rect, union)
-        if not exact:
-            s_c, r_c = c[groups, 2], r[groups]
-            members = all_members[groups]
-            return [
-                _valid(
-                    members
-                    if slab is None
-                    else members[(s_c + r_c >= slab[0]) & (s_c - r_c <= slab[1])]
-                )
-                for slab in slabs
-            ]
-        # The triangles of those clusters, whole rows at once (padding is NaN: never meets).
-        centres, radii = self._mesh.cluster_members_spheres()
-        members = all_members[groups].ravel()
-        centre = self._to_camera(centres[groups].reshape(-1, 3))
-        radius = radii[groups].ravel() * self._scale
-        near = _meets(centre, radius, rect, union)
-        members, s, radius = members[near], centre[near, 2], radius[near]
-        return [
-            members if slab is None else members[(s + radius >= slab[0]) & (s - radius <= slab[1])]
-            for slab in slabs
-        ]
+    def meeting(self, rect: Rect, slab: tuple[float, float]) -> Indices:
+        """Triangles whose bounding sphere meets `rect` and the s range `slab`."""
+        return meeting_many([(self, rect, slab)])[0]
 
     def s_extreme(self, rect: Rect, lowest: bool) -> float | None:
         """The exact lowest (or highest) s of the triangles whose spheres meet `rect`; for a
@@ -205,7 +170,7 @@ class Projected:
             return _faces_extreme(self._faces_towards(lowest), rect, lowest)
         centre, r, all_members = self._clusters
         c = centre[:, 2]
-        groups = _meets(centre, r, rect, None)
+        groups = _meets(centre, r, rect)
         if not groups.any():
             return None
         # Only groups (then triangles) whose sphere may hold the extreme need the exact test.
@@ -216,7 +181,7 @@ class Projected:
         members = all_members[groups].ravel()
         which = members[members >= 0]
         centre, radius = self.spheres(which)
-        which = which[_meets(centre, radius, rect, None)]
+        which = which[_meets(centre, radius, rect)]
         if len(which) == 0:
             return None
         s = self.corners(which)[..., 2]
@@ -256,11 +221,12 @@ Query = tuple[Projected, Rect, tuple[float, float]]
 
 
 def meeting_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
-    """`Projected.meeting(rect, slab)` of each query (with `exact` False, of whole clusters, as
-    `meeting_slabs`), the box tests of a batch's queries made together: each query's cluster
+    """`Projected.meeting(rect, slab)` of each query (with `exact` False, the triangles of every
+    cluster whose sphere meets the box: a superset, for a GPU that clips and culls faster than
+    the CPU can sort), the box tests of a batch's queries made together: each query's cluster
     spheres, then those of the triangles of its clusters that pass, are put in camera
-    coordinates as `meeting_slabs` does, and all of them tested against their own query's box
-    in one set of array operations. A query's result does not depend on the others (each row is
+    coordinates and all of them tested against their own query's box in one set of array
+    operations. A query's result does not depend on the others (each row is
     tested against its own box); numpy's cost per call, much of a query's on a mesh of a few
     thousand triangles, is paid once a batch for the tests."""
     if not queries:
@@ -405,18 +371,14 @@ def _sphere_rect(centre: Array, radius: Array) -> Rect:
     )
 
 
-def _meets(
-    centre: Array, radius: Array, rect: Rect, slab: tuple[float, float] | None
-) -> NDArray[np.bool_]:
-    keep = (
+def _meets(centre: Array, radius: Array, rect: Rect) -> NDArray[np.bool_]:
+    """Whether each sphere meets `rect` in x, y (any s)."""
+    return (
         (centre[:, 0] + radius >= rect.x0)
         & (centre[:, 0] - radius <= rect.x1)
         & (centre[:, 1] + radius >= rect.y0)
         & (centre[:, 1] - radius <= rect.y1)
     )
-    if slab is not None:
-        keep &= (centre[:, 2] + radius >= slab[0]) & (centre[:, 2] - radius <= slab[1])
-    return keep
 
 
 def _faces_slab_rect(faces: list[list[Point]], lo: float, hi: float) -> Rect | None:
