@@ -205,9 +205,9 @@ def camera_draft(
     dv = (math.floor(v * height) + 0.5) / height - v
     origin = tuple(p + a * du + b * dv for p, a, b in zip(point, dpdu, dpdv, strict=True))
 
-    axes = np.array([right, up, forward])
-    target_tris = Projected(target.mesh, model, np.array(origin), axes)
-    tool_tris = Projected(tool.mesh, tool.model, np.array(origin), axes)
+    axes, at = np.array([right, up, forward]), np.array(origin)
+    target_tris = Projected(target.mesh, model, at, axes)
+    tool_tris = Projected(tool.mesh, tool.model, at, axes)
     bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)
     if bound is None:
         return None
