@@ -10,6 +10,7 @@ import math
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field, replace
+from itertools import islice
 from typing import TYPE_CHECKING
 
 import moderngl
@@ -450,16 +451,14 @@ class Carver:
             counts.append(len(directions) - before)
         drafts = [self._draft(*direction) for direction in directions]
         cameras = iter(collision_cameras(drafts, self.exact_lists))
-        found = [
-            self._job(target, tool, depth, advanced, next(cameras))
-            for target, tool, _, depth, advanced in directions
-        ]
-        out: list[list[CarveJob]] = []
-        start = 0
-        for count in counts:
-            out.append([job for job in found[start : start + count] if job is not None])
-            start += count
-        return out
+        found = iter(
+            [
+                self._job(target, tool, depth, advanced, next(cameras))
+                for target, tool, _, depth, advanced in directions
+            ]
+        )
+        # Each press's directions, in order, less those whose bodies cannot meet.
+        return [[job for job in islice(found, count) if job is not None] for count in counts]
 
     def _draft(
         self,
