@@ -21,6 +21,7 @@ from dentdemo.carve.undo import (
     chart_boxes,
     job_rects,
     merged_rects,
+    size_class,
 )
 
 SIDE = 0.4  # plate side, m
@@ -198,16 +199,57 @@ def _own_log(carver, depth: int, budget: int) -> UndoLog:
 
 
 def _entry_bytes(entry) -> int:
-    """Texture bytes of an entry's snapshots worked out from their textures: w h (4 + 4)."""
+    """Texture bytes of an entry's snapshots worked out from their textures: w h (4 + 4), each
+    texture holding its rectangle and at most 1.5 times its sides past 16 texels."""
     total = 0
     for snap in entry:
-        w, h = snap.rect[2:]
-        assert snap.height.size == (w, h) and snap.height.dtype == "f4"
-        assert snap.height.components == 1
+        w, h = snap.height.size
+        rw, rh = snap.rect[2:]
+        assert rw <= w <= max(16, 1.5 * rw) and rh <= h <= max(16, 1.5 * rh)
+        assert snap.height.dtype == "f4" and snap.height.components == 1
         assert snap.normal.size == (w, h) and snap.normal.dtype == "f1"
         assert snap.normal.components == 4
         total += w * h * 4 + w * h * 4
     return total
+
+
+def test_size_classes_by_hand():
+    """16 up to 16 texels, then the powers of two and 1.5 times them: the least that holds."""
+    expected = {1: 16, 16: 16, 17: 24, 24: 24, 25: 32, 32: 32, 33: 48, 48: 48, 49: 64}
+    expected |= {96: 96, 97: 128, 129: 192, 193: 256, 4000: 4096, 4096: 4096}
+    assert {side: size_class(side) for side in expected} == expected
+
+
+def test_dropped_snapshots_textures_serve_the_next_entries(gl, scene, monkeypatch):
+    """A log one entry deep: each press drops the last entry, and the same press again makes
+    its snapshots in the textures of the one dropped, making no texture; the cleared log keeps
+    them idle (their bytes), and release deletes those too."""
+    plate, ball, carver = scene
+    log = _own_log(carver, 1, UNDO_BYTES)
+    try:
+        _press(carver, plate, ball, 0)
+        first = {id(snap.textures) for snap in log.entries[-1]}
+        made = []
+        real = moderngl.Context.texture
+        monkeypatch.setattr(
+            moderngl.Context, "texture", lambda *a, **k: made.append(a) or real(*a, **k)
+        )
+        _press(carver, plate, ball, 0)
+        monkeypatch.undo()
+        entry = list(log.entries[-1])
+        assert {id(snap.textures) for snap in entry} == first and not made
+        assert len(log) == 1 and log.idle_bytes == 0 and log.bytes == _entry_bytes(entry)
+        log.clear()
+        assert log.bytes == 0 and log.idle_bytes == _entry_bytes(entry)
+        pairs = [snap.textures for snap in entry]
+    finally:
+        log.release()
+    assert log.idle_bytes == 0 and not log._idle
+    assert all(
+        isinstance(texture.mglo, moderngl.mgl.InvalidObject)
+        for pair in pairs
+        for texture in (pair.height, pair.normal)
+    )  # deleted
 
 
 def test_depth_bound_drops_the_oldest(gl, scene):

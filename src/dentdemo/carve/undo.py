@@ -19,6 +19,13 @@ a footprint that falls apart inside one chart gets the box around both parts), a
 all jobs on one map are merged into a few rectangles (split where `GAP` texels or more of rows or
 columns hold no box, so that a dent across two far charts of an atlas keeps two small
 rectangles).
+
+Where the snapshots live: each rectangle is copied to the lower-left corner of a pair of textures
+(height, normals) whose sides are the rectangle's rounded up to a size class (`size_class`: 16,
+24, 32, 48, 64, 96, ... texels), so that the pairs of dropped entries serve the next ones
+instead of being deleted and made again (on llvmpipe that costs 35 us a rectangle, a tenth of
+a sandbox hit's carve). The log counts the pairs' texture bytes against its budget; pairs kept
+idle for reuse are at most `IDLE_BYTES`.
 """
 
 from __future__ import annotations
@@ -53,6 +60,21 @@ SNAPSHOT_BYTES_PER_TEXEL = 4 + 4
 MARGIN = 2
 #: Boxes farther apart than this (texels) along u or v get rectangles of their own.
 GAP = 8
+#: Bytes of snapshot textures the log keeps idle for reuse at most (beside its budget).
+IDLE_BYTES = 8 << 20
+#: The smallest side of a snapshot texture, texels.
+MIN_SIDE = 16
+
+
+def size_class(side: int) -> int:
+    """A snapshot texture's side for a rectangle's `side` (texels): the least of 16, 24, 32, 48,
+    64, 96, ... (powers of two and 1.5 times them) that holds it, so at most 1.5 times it past
+    16."""
+    if side <= MIN_SIDE:
+        return MIN_SIDE
+    power = 1 << (side - 1).bit_length()  # the least power of two >= side
+    return power * 3 // 4 if side <= power * 3 // 4 else power
+
 
 #: A rectangle of a map: (x, y, width, height), texels; x along +u, y along +v (row 0 is v = 0).
 Rect = tuple[int, int, int, int]
@@ -163,12 +185,11 @@ def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
     return [(maps, merged_rects(found)) for maps, found in by_maps.values()]
 
 
-@dataclass
-class Snapshot:
-    """One rectangle of a map's height and normals as they were before an entry's hits."""
+@dataclass(frozen=True)
+class SnapshotTextures:
+    """A pair of snapshot textures of one size (texels) and their framebuffers."""
 
-    maps: SurfaceMaps
-    rect: Rect
+    size: tuple[int, int]
     height: moderngl.Texture
     normal: moderngl.Texture
     height_fbo: moderngl.Framebuffer
@@ -176,10 +197,33 @@ class Snapshot:
 
     @property
     def bytes(self) -> int:
-        return self.rect[2] * self.rect[3] * SNAPSHOT_BYTES_PER_TEXEL
+        return self.size[0] * self.size[1] * SNAPSHOT_BYTES_PER_TEXEL
 
     def release(self) -> None:
         release(self.height_fbo, self.normal_fbo, self.height, self.normal)
+
+
+@dataclass
+class Snapshot:
+    """One rectangle of a map's height and normals as they were before an entry's hits, in the
+    lower-left corner of `textures`."""
+
+    maps: SurfaceMaps
+    rect: Rect
+    textures: SnapshotTextures
+
+    @property
+    def height(self) -> moderngl.Texture:
+        return self.textures.height
+
+    @property
+    def normal(self) -> moderngl.Texture:
+        return self.textures.normal
+
+    @property
+    def bytes(self) -> int:
+        """The texture bytes the snapshot holds (its size class, not only its rectangle)."""
+        return self.textures.bytes
 
 
 class UndoLog:
@@ -194,7 +238,11 @@ class UndoLog:
         self.budget = budget
         #: Oldest first; each entry is the snapshots of one batch.
         self.entries: deque[list[Snapshot]] = deque()
+        #: Texture bytes of the entries' snapshots.
         self.bytes = 0
+        #: Texture pairs of dropped snapshots by size, for reuse; `idle_bytes` in all.
+        self._idle: dict[tuple[int, int], list[SnapshotTextures]] = {}
+        self.idle_bytes = 0
 
     def __len__(self) -> int:
         return len(self.entries)
@@ -206,7 +254,10 @@ class UndoLog:
         if not jobs or self.depth <= 0:
             return
         rects = [(maps, rect) for maps, found in job_rects(jobs) for rect in found]
-        needed = sum(w * h for _, (_, _, w, h) in rects) * SNAPSHOT_BYTES_PER_TEXEL
+        needed = (
+            sum(size_class(w) * size_class(h) for _, (_, _, w, h) in rects)
+            * SNAPSHOT_BYTES_PER_TEXEL
+        )
         if needed > self.budget:
             self.clear()
             return
@@ -221,8 +272,8 @@ class UndoLog:
         for snap in entry:
             x, y, w, h = snap.rect
             copies += [
-                (snap.maps.height_fbo, (x, y), snap.height_fbo, (0, 0), w, h),
-                (snap.maps.normal_fbo, (x, y), snap.normal_fbo, (0, 0), w, h),
+                (snap.maps.height_fbo, (x, y), snap.textures.height_fbo, (0, 0), w, h),
+                (snap.maps.normal_fbo, (x, y), snap.textures.normal_fbo, (0, 0), w, h),
             ]
         self._blit(copies)
         self.entries.append(entry)
@@ -238,8 +289,8 @@ class UndoLog:
         for snap in entry:  # the rectangles of one entry and map are disjoint: any order
             x, y, w, h = snap.rect
             copies += [
-                (snap.height_fbo, (0, 0), snap.maps.height_fbo, (x, y), w, h),
-                (snap.normal_fbo, (0, 0), snap.maps.normal_fbo, (x, y), w, h),
+                (snap.textures.height_fbo, (0, 0), snap.maps.height_fbo, (x, y), w, h),
+                (snap.textures.normal_fbo, (0, 0), snap.maps.normal_fbo, (x, y), w, h),
             ]
         with preserved(self.gl.ctx):
             self._blit(copies)
@@ -252,10 +303,7 @@ class UndoLog:
         entries left empty go. Undo then restores the other bodies of those entries only."""
         kept: deque[list[Snapshot]] = deque()
         for entry in self.entries:
-            for snap in entry:
-                if snap.maps is maps:
-                    self.bytes -= snap.bytes
-                    snap.release()
+            self._drop([snap for snap in entry if snap.maps is maps])
             rest = [snap for snap in entry if snap.maps is not maps]
             if rest:
                 kept.append(rest)
@@ -266,24 +314,44 @@ class UndoLog:
             self._drop(self.entries.popleft())
 
     def release(self) -> None:
+        """Every snapshot and idle texture deleted."""
         self.clear()
+        for pairs in self._idle.values():
+            for pair in pairs:
+                pair.release()
+        self._idle.clear()
+        self.idle_bytes = 0
 
     # -- internals -----------------------------------------------------------------------------
     def _drop(self, entry: list[Snapshot]) -> None:
+        """The entry's snapshots forgotten, their textures kept idle for reuse while the idle
+        ones hold at most IDLE_BYTES, else deleted."""
         for snap in entry:
             self.bytes -= snap.bytes
-            snap.release()
+            pair = snap.textures
+            if self.idle_bytes + pair.bytes <= IDLE_BYTES:
+                self._idle.setdefault(pair.size, []).append(pair)
+                self.idle_bytes += pair.bytes
+            else:
+                pair.release()
 
     def _allocate(self, maps: SurfaceMaps, rect: Rect) -> Snapshot:
+        """A snapshot of `rect` in an idle pair of its size class, or in a new one."""
+        size = (size_class(rect[2]), size_class(rect[3]))
+        idle = self._idle.get(size)
+        if idle:
+            pair = idle.pop()
+            self.idle_bytes -= pair.bytes
+            return Snapshot(maps, rect, pair)
         ctx = self.gl.ctx
-        size = (rect[2], rect[3])
         height = ctx.texture(size, 1, dtype="f4")
         normal = ctx.texture(size, 4, dtype="f1")
         for texture in (height, normal):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        return Snapshot(
-            maps, rect, height, normal, ctx.framebuffer([height]), ctx.framebuffer([normal])
+        pair = SnapshotTextures(
+            size, height, normal, ctx.framebuffer([height]), ctx.framebuffer([normal])
         )
+        return Snapshot(maps, rect, pair)
 
     def _blit(self, copies: list[Copy]) -> None:
         """glBlitFramebuffer, NEAREST, of each copy's rectangle (same format on both sides:
