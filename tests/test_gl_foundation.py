@@ -287,6 +287,59 @@ def test_a_shared_batch_draws_each_pass_with_its_program_and_refuses_other_state
         release(*vaos.values(), fbo, target, low.program, high.program)
 
 
+def test_a_shared_batch_binds_only_what_changed_and_each_draw_samples_its_own(gl, monkeypatch):
+    """A shared batch of draws that sample textures of known values (2, 3, 5) through one
+    unit, first plain, then through a NEAREST sampler object, into two framebuffers with one
+    viewport: each draw writes the value of the texture it names, over its viewport only,
+    also after the framebuffer changes (binding one sets its own whole viewport). A draw whose
+    texture is the unit's already binds nothing."""
+    from dentdemo.gl import passes
+    from dentdemo.gl.passes import Pass, PassState, shared_batch
+
+    ctx = gl.ctx
+    vert = (
+        "#version 330 core\nvoid main() { vec2 p = vec2((gl_VertexID & 1) * 4 - 1,"
+        " (gl_VertexID >> 1) * 4 - 1); gl_Position = vec4(p, 0.0, 1.0); }"
+    )
+    frag = (
+        "#version 330 core\nuniform sampler2D u_source;\nout vec4 f;\n"
+        "void main() { f = texelFetch(u_source, ivec2(0), 0); }"
+    )
+    copy = Pass("copy", ctx.program(vertex_shader=vert, fragment_shader=frag), PassState())
+    copy = Pass(copy.name, copy.program, copy.state, ("u_source",))
+    sources = [ctx.texture((1, 1), 1, np.float32([v]).tobytes(), dtype="f4") for v in (2, 3, 5)]
+    sampler = ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST))
+    targets = [ctx.texture((8, 4), 1, dtype="f4") for _ in range(2)]
+    fbos = [ctx.framebuffer([t]) for t in targets]
+    vao = ctx.vertex_array(copy.program, [])
+    binds = []
+    real_bind = passes.bind
+    monkeypatch.setattr(passes, "bind", lambda *a: binds.append(a[1]) or real_bind(*a))
+
+    def draw(prog):
+        vao.render(moderngl.TRIANGLES, vertices=3)
+
+    a, b, c = sources
+    try:
+        for fbo in fbos:
+            fbo.clear(-1.0, -1.0, -1.0, -1.0)
+        with shared_batch(ctx, fbos[0], copy.state) as one:
+            one(copy, (0, 0, 2, 4), draw, (a,))
+            one(copy, (2, 0, 2, 4), draw, (a,))  # the same texture: no bind
+            one(copy, (4, 0, 2, 4), draw, (b,))
+            one(copy, (6, 0, 2, 4), draw, ((c, sampler),))
+            one(copy, (6, 0, 2, 4), draw, ((c, sampler),), into=fbos[1])  # no bind
+            one(copy, (0, 0, 2, 4), draw, (a,), into=fbos[1])
+        assert binds == [a, b, (c, sampler), a]
+        first, second = (gl.read(t)[..., 0] for t in targets)  # rows, columns
+        assert np.all(first[:, :4] == 2.0) and np.all(first[:, 4:6] == 3.0)
+        assert np.all(first[:, 6:] == 5.0)
+        assert np.all(second[:, 6:] == 5.0) and np.all(second[:, :2] == 2.0)
+        assert np.all(second[:, 2:6] == -1.0)  # the viewports held after the switch
+    finally:
+        release(vao, *fbos, *targets, *sources, sampler, copy.program)
+
+
 def test_set_uniforms_writes_each_kind_of_uniform_every_time_it_changes(gl):
     """set_uniforms on a library program (its writers cached after the first write of each
     name) writes floats, vectors, integer vectors, booleans and column-major matrices: read back

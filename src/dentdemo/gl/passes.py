@@ -213,6 +213,13 @@ def shared_batch(
     or into `into` (bound when it changes). Drawing a map's variants one after the other binds
     its framebuffer once, where a batch per variant would bind it once per variant."""
     bound = [fbo]
+    #: What each texture unit holds since the batch bound it, and the viewport set since the
+    #: framebuffer was bound (binding one sets its own): a draw sets again only what changed.
+    #: The batch's draws alone set either meanwhile. A call that sets the same again is not
+    #: free: Mesa marks the state changed, and llvmpipe's draw after it costs more.
+    units: list[Sampled | None] = []
+    view: list[tuple[int, int, int, int] | None] = [None]
+    checked: dict[int, PassState] = {id(state): state}  # states found equal to the batch's
 
     def one(
         pass_: Pass,
@@ -222,24 +229,43 @@ def shared_batch(
         uniforms: Mapping[str, object] | None = None,
         into: moderngl.Framebuffer | None = None,
     ) -> None:
-        if pass_.state is not state and pass_.state != state:
-            raise ValueError(f"pass {pass_.name!r} has other state than its shared batch")
+        if id(pass_.state) not in checked:
+            if pass_.state != state:
+                raise ValueError(f"pass {pass_.name!r} has other state than its shared batch")
+            checked[id(pass_.state)] = pass_.state
         if into is not None and into is not bound[0]:
             into.use()  # applies its own masks: the pass's depth mask again
             gl_library().glDepthMask(int(state.depth_write))
             bound[0] = into
+            view[0] = None
         prog = pass_.program
-        for unit, (name, sampled) in enumerate(zip(pass_.samplers, textures, strict=True)):
-            bind(ctx, sampled, unit)
+        if len(pass_.samplers) != len(textures):
+            raise ValueError(f"pass {pass_.name!r} samples {len(pass_.samplers)} textures")
+        for unit, sampled in enumerate(textures):
+            if unit == len(units):
+                units.append(None)
+            if not _same(units[unit], sampled):
+                bind(ctx, sampled, unit)
+                units[unit] = sampled
+        for unit, name in enumerate(pass_.samplers):
             set_uniform(prog, name, unit)
         if uniforms:
             set_uniforms(prog, uniforms, pass_.selectors)
-        ctx.viewport = viewport
+        if viewport != view[0]:
+            ctx.viewport = viewport
+            view[0] = viewport
         draw(prog)
 
     fbo.use()
     with applied(ctx, state):
         yield one
+
+
+def _same(held: Sampled | None, sampled: Sampled) -> bool:
+    """Whether a unit that holds `held` already samples `sampled` (the same texture objects)."""
+    if isinstance(sampled, tuple):
+        return isinstance(held, tuple) and held[0] is sampled[0] and held[1] is sampled[1]
+    return held is sampled
 
 
 def bind(ctx: moderngl.Context, sampled: Sampled, unit: int) -> None:
