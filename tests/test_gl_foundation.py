@@ -317,7 +317,7 @@ def test_a_shared_batch_binds_only_what_changed_and_each_draw_samples_its_own(gl
     unit, first plain, then through a NEAREST sampler object, into two framebuffers with one
     viewport: each draw writes the value of the texture it names, over its viewport only,
     also after the framebuffer changes (binding one sets its own whole viewport). A draw whose
-    texture is the unit's already binds nothing."""
+    texture is the unit's already binds nothing, and the sampler is named to its unit once."""
     from dentdemo.gl import passes
     from dentdemo.gl.passes import Pass, PassState, shared_batch
 
@@ -337,9 +337,10 @@ def test_a_shared_batch_binds_only_what_changed_and_each_draw_samples_its_own(gl
     targets = [ctx.texture((8, 4), 1, dtype="f4") for _ in range(2)]
     fbos = [ctx.framebuffer([t]) for t in targets]
     vao = ctx.vertex_array(copy.program, [])
-    binds = []
-    real_bind = passes.bind
+    binds, named = [], []
+    real_bind, real_name = passes.bind, passes.set_uniform
     monkeypatch.setattr(passes, "bind", lambda *a: binds.append(a[1]) or real_bind(*a))
+    monkeypatch.setattr(passes, "set_uniform", lambda *a: named.append(a[1]) or real_name(*a))
 
     def draw(prog):
         vao.render(moderngl.TRIANGLES, vertices=3)
@@ -356,6 +357,7 @@ def test_a_shared_batch_binds_only_what_changed_and_each_draw_samples_its_own(gl
             one(copy, (6, 0, 2, 4), draw, ((c, sampler),), into=fbos[1])  # no bind
             one(copy, (0, 0, 2, 4), draw, (a,), into=fbos[1])
         assert binds == [a, b, (c, sampler), a]
+        assert named == ["u_source"]  # the program keeps its sampler's unit for the batch
         first, second = (gl.read(t)[..., 0] for t in targets)  # rows, columns
         assert np.all(first[:, :4] == 2.0) and np.all(first[:, 4:6] == 3.0)
         assert np.all(first[:, 6:] == 5.0)

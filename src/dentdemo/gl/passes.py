@@ -239,6 +239,7 @@ def shared_batch(
     #: free: Mesa marks the state changed, and llvmpipe's draw after it costs more.
     units: list[Sampled | None] = []
     view: list[tuple[int, int, int, int] | None] = [None]
+    named: dict[moderngl.Program, tuple[str, ...]] = {}  # the samplers named, by program
     checked: dict[int, PassState] = {id(state): state}  # states found equal to the batch's
 
     def one(
@@ -268,8 +269,10 @@ def shared_batch(
             if not _same(units[unit], sampled):
                 bind(ctx, sampled, unit)
                 units[unit] = sampled
-        for unit, name in enumerate(pass_.samplers):
-            set_uniform(prog, name, unit)
+        if named.get(prog) != pass_.samplers:  # its samplers named to their units (GL keeps)
+            for unit, name in enumerate(pass_.samplers):
+                set_uniform(prog, name, unit)
+            named[prog] = pass_.samplers
         if uniforms:
             set_uniforms(prog, uniforms, pass_.selectors)
         if block is not None:
