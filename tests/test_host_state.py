@@ -352,6 +352,36 @@ def test_hostile_host_state_neither_changes_the_dent_nor_is_changed(gl, sampler_
     )
 
 
+def test_a_carver_that_gives_no_state_back_dents_as_under_clean_state(gl):
+    """The sandbox's carver (keep_host_state False: it owns its context) under the hostile
+    state: the same heights and normal map as the clean press, bit for bit, and the batch's
+    passes leave the neutral state (no blending, depth test, culling or rasterizer discard)."""
+    ctx = gl.ctx
+    expected, expected_normals = clean_press(ctx)
+    gl_raw = _raw()
+    plate = dentdemo.DentableSurface(ctx, dentdemo.shape_mesh(dentdemo.Plate(S)), MAP)
+    ball = dentdemo.DentableSurface(ctx, dentdemo.shape_mesh(dentdemo.Sphere(R)), 64)
+    ball.model = np.eye(4)
+    ball.model[1, 3] = R
+    carver = dentdemo.Carver(ctx)
+    contact = dentdemo.Contact((0, 0, 0), (0, -1, 0))
+    try:
+        with hostile_state(ctx, _SAMPLER_FILTERS["trilinear"]):
+            carver._live().keep_host_state = False
+            carver.press(plate, ball, contact, D, TOOL_D)
+            left = {name: bool(gl_raw.glIsEnabled(_CAPS[name])) for name in _NEUTRAL_OFF}
+            heights, normals = plate.heights(), host_read(plate.normal)
+    finally:
+        for thing in (carver, ball, plate):
+            thing.release()
+    assert left == dict.fromkeys(_NEUTRAL_OFF, False)
+    assert np.array_equal(heights, expected) and np.array_equal(normals, expected_normals)
+
+
+#: Capabilities the hostile state switches on and the neutral state off.
+_NEUTRAL_OFF = ("blend", "depth_test", "cull_face", "rasterizer_discard", "scissor_test")
+
+
 def test_the_clean_press_is_the_analytic_cap(gl):
     assert_cap(clean_press(gl.ctx)[0])
 

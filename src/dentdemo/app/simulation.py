@@ -108,6 +108,9 @@ class Simulation:
         self.carve_budget = carve_budget
         self.time_scale = 1.0
         self.carver = Carver(gl)
+        # The sandbox owns its context, and its renderer and panel set the state each of their
+        # passes draws with: no host state to give back after each frame's carve.
+        self.carver.keep_host_state = False
         #: Each carved batch (one frame's queue) snapshotted on the GPU for undo (carve/undo.py);
         #: not saved with the state: a reset or a load empties it.
         self.undo_log = UndoLog(gl)

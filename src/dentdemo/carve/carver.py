@@ -47,7 +47,7 @@ from dentdemo.carve.texel_passes import (
 from dentdemo.carve.undo import footprint_boxes
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.library import flush
-from dentdemo.gl.passes import Blend, Pass, PassState, shared_batch
+from dentdemo.gl.passes import Blend, Pass, PassState, neutral, shared_batch
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
 
@@ -248,6 +248,15 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
 
 
+@contextlib.contextmanager
+def _from_neutral(ctx: moderngl.Context) -> Iterator[None]:
+    """`preserved` without the host's state: the body starts from `neutral` state, and what
+    it leaves stays (its passes end in `neutral` state; the last framebuffer it bound stays
+    bound, as moderngl records)."""
+    neutral(ctx)
+    yield
+
+
 #: Poses whose uniforms the carver keeps (a burst's bodies; cleared when full).
 POSES_KEPT = 256
 
@@ -319,6 +328,11 @@ class Carver:
         self.address_every_target = False
         #: Snapshots each batch's footprints before it is carved, when set (carve/undo.py).
         self.undo_log: UndoLog | None = None
+        #: Give the host its GL state back after each batch (`gl.state.preserved`). False for
+        #: the sandbox, which owns its context and whose every pass sets the state it draws
+        #: with: the batch then starts from `neutral` state and leaves it, and the capture and
+        #: restore of the host's (0.3 ms a batch on llvmpipe) are saved.
+        self.keep_host_state = True
         #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
         self._posed: dict[tuple[int, bytes], tuple[Mesh, dict[str, object]]] = {}
 
@@ -351,7 +365,8 @@ class Carver:
         `carve_many`); returns the directions with their tiles."""
         placed: list[CarveJob] = []
         if any(hits):
-            with preserved(self.gl.ctx):  # the host's GL state, as it left it
+            kept = preserved if self.keep_host_state else _from_neutral
+            with kept(self.gl.ctx):  # the host's GL state, as it left it (or not: the app's)
                 for batch in self.scratch.pack([hit for hit in hits if hit]):
                     self._run(batch, None if placed else hits)
                     placed += batch
