@@ -4,7 +4,6 @@ import ctypes
 import os
 import subprocess
 import sys
-from functools import partial
 
 import moderngl
 import numpy as np
@@ -209,60 +208,37 @@ def test_uniform_declarations_are_read_from_the_source():
 
 
 def test_a_uniform_no_shader_declares_raises_in_strict_mode(gl, monkeypatch):
-    from dentdemo.carve.texel_passes import job_blocks, texture_space_passes
+    from dentdemo.carve.texel_passes import texture_space_passes
     from dentdemo.gl.shaders import library_uniforms
 
     normals = texture_space_passes(gl)["normals", 0, False]
     target = gl.ctx.texture((4, 4), 4)
     fbo = gl.ctx.framebuffer([target])
     draw = lambda prog: None  # noqa: E731 (no geometry: only the uniforms are written)
-    run = partial(normals.run, gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target))
-    # u_rect is util/rect.vert's, which this variant lacks: skipped, as a shared dict needs.
-    assert "u_rect" in library_uniforms() and "u_rect" not in normals.program
-    run({"u_rect": (0, 0, 4, 4)})
+    # u_map_size is texel.geom's, which this variant lacks: skipped, as a shared dict needs.
+    assert "u_map_size" in library_uniforms() and "u_map_size" not in normals.program
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_size": (4, 4)})
     # A variant selector is not a uniform.
-    run({"u_swept": True})
-    with pytest.raises(ShaderError, match="u_rekt"):
-        run({"u_rekt": (0, 0, 4, 4)})
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_swept": True})
+    with pytest.raises(ShaderError, match="u_map_sise"):
+        normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
     monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "0")
-    run({"u_rekt": (0, 0, 4, 4)})
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
     # Skipped names are remembered per program, but only those some shader declares: the
     # misspelt one is checked again, and raises again once the check is back on.
     monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "1")
-    with pytest.raises(ShaderError, match="u_rekt"):
-        run({"u_rekt": (0, 0, 4, 4)})
-    run({"u_rect": (0, 0, 4, 4)})
-    assert "u_rect" in normals.program.extra.absent
-    # The job block's values: its members and the selectors; another name raises.
-    blocks = job_blocks(gl)
-    run(block=({"u_map_size": (4, 4), "u_swept": False},), blocks=blocks)
     with pytest.raises(ShaderError, match="u_map_sise"):
-        run(block=({"u_map_sise": (4, 4)},), blocks=blocks)
-    monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "0")
-    run(block=({"u_map_sise": (4, 4)},), blocks=blocks)
+        normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_size": (4, 4)})
+    assert "u_map_size" in normals.program.extra.absent
     release(fbo, target)
 
 
-def _plain_program(shader_tree, gl):
-    """A library program (cached writers) with a plain uniform of each kind the passes write."""
-    lib = shader_tree(
-        {
-            "plain.vert": (
-                "#version 330 core\nuniform vec3 u_eye;\nuniform vec2 u_clip_half;\n"
-                "uniform ivec2 u_map_size;\nuniform bool u_clip;\nuniform mat4 u_model;\n"
-                "void main() { gl_Position = u_model * vec4(u_eye + vec3(u_clip_half, "
-                "float(u_map_size.x)), u_clip ? 1.0 : 0.0); }\n"
-            ),
-            "plain.frag": "#version 330 core\nout vec4 f;\nvoid main() { f = vec4(1.0); }\n",
-        }
-    )
-    return lib.program(gl.ctx, "plain.vert", "plain.frag")
-
-
-def test_a_uniform_set_again_to_its_value_is_skipped_and_a_new_value_is_not(gl, shader_tree):
+def test_a_uniform_set_again_to_its_value_is_skipped_and_a_new_value_is_not(gl):
+    from dentdemo.carve.texel_passes import texture_space_passes
     from dentdemo.gl.shaders import set_uniform
 
-    prog = _plain_program(shader_tree, gl)
+    prog = texture_space_passes(gl)["normals", 1, False].program
     writes = []
     member = prog["u_map_size"]
     for value in [(8, 8), (8, 8), (16, 4), (16, 4), (8, 8)]:
@@ -271,7 +247,6 @@ def test_a_uniform_set_again_to_its_value_is_skipped_and_a_new_value_is_not(gl, 
         writes.append(before != value)
         assert tuple(member.value) == value  # what GL holds, read back
     assert writes == [True, False, True, False, True]
-    prog.release()
 
 
 def test_a_shared_batch_draws_each_pass_with_its_program_and_refuses_other_state(gl):
@@ -367,13 +342,17 @@ def test_a_shared_batch_binds_only_what_changed_and_each_draw_samples_its_own(gl
         release(vao, *fbos, *targets, *sources, sampler, copy.program)
 
 
-def test_set_uniforms_writes_each_kind_of_uniform_every_time_it_changes(gl, shader_tree):
+def test_set_uniforms_writes_each_kind_of_uniform_every_time_it_changes(gl):
     """set_uniforms on a library program (its writers cached after the first write of each
     name) writes floats, vectors, integer vectors, booleans and column-major matrices: read back
     from GL after each of three rounds of new values, every uniform holds what was set last."""
-    from dentdemo.gl.shaders import set_uniforms
+    from dentdemo.carve.constants import shader_defines
+    from dentdemo.gl.shaders import ShaderLibrary, set_uniforms
 
-    prog = _plain_program(shader_tree, gl)
+    defines = shader_defines(GUTTER=1)  # the gutter variant: u_map_size is an ivec2
+    prog = ShaderLibrary().program(
+        gl.ctx, "carve/texel.vert", "carve/normals.frag", "carve/texel.geom", defines=defines
+    )
     rng = np.random.default_rng(3)
     for _ in range(3):
         model = rng.normal(size=(4, 4))

@@ -1,10 +1,9 @@
 """A host program's GL state neither changes the carve's result nor comes back changed: under
 hostile state (wireframe, trilinear or nearest sampler objects on every unit, odd clear values,
-culling, depth, blend and rasterizer settings, a uniform-buffer range of its own on binding 0, an
-`extra` of its own) the dent is the analytic spherical cap and the same bits as under clean
-state, the driver holds after every public call what it held before, moderngl's cached view of
-the context agrees with the driver, and ctx.extra is the host's. Every read here is a raw glGet
-through ctypes, independent of dentdemo.gl.state."""
+culling, depth, blend and rasterizer settings, an `extra` of its own) the dent is the analytic
+spherical cap and the same bits as under clean state, the driver holds after every public call
+what it held before, moderngl's cached view of the context agrees with the driver, and ctx.extra
+is the host's. Every read here is a raw glGet through ctypes, independent of dentdemo.gl.state."""
 
 from __future__ import annotations
 
@@ -72,7 +71,6 @@ _FLOATS = {
 _BOOLS = {"depth_mask": (0x0B72, 1), "color_mask": (0x0C23, 4)}
 _DEPTH_CLEAR_VALUE = 0x0B73
 _TEXTURE0, _TEXTURE_BINDING_2D, _SAMPLER_BINDING = 0x84C0, 0x8069, 0x8919
-_UNIFORM_BUFFER, _UNIFORM_BUFFER_BINDING = 0x8A11, 0x8A28
 _LINE = 0x1B01
 _CULL_NAMES = {0x0404: "front", 0x0405: "back", 0x0408: "front_and_back"}
 _FRONT_NAMES = {0x0900: "cw", 0x0901: "ccw"}
@@ -122,13 +120,6 @@ def driver_state() -> dict[str, object]:
     state["clear_depth"] = _read(gl.glGetDoublev, ctypes.c_double, _DEPTH_CLEAR_VALUE, 1)
     state["textures"] = _per_unit(gl, _TEXTURE_BINDING_2D)
     state["samplers"] = _per_unit(gl, _SAMPLER_BINDING)
-    state["uniform_buffer"] = _read(gl.glGetIntegerv, ctypes.c_int, _UNIFORM_BUFFER_BINDING, 1)
-    block0 = (ctypes.c_int * 1)()
-    gl.glGetIntegeri_v(_UNIFORM_BUFFER_BINDING, 0, block0)
-    span = [(ctypes.c_int64 * 1)() for _ in range(2)]
-    gl.glGetInteger64i_v(_UNIFORM_BUFFER_BINDING + 1, 0, span[0])  # start
-    gl.glGetInteger64i_v(_UNIFORM_BUFFER_BINDING + 2, 0, span[1])  # size
-    state["uniform_block0"] = (block0[0], span[0][0], span[1][0])
     return state
 
 
@@ -236,7 +227,6 @@ def hostile_state(ctx: moderngl.Context, filters: tuple[int, int]) -> Iterator[N
     target = ctx.framebuffer([ctx.texture((64, 48), 4)], ctx.depth_renderbuffer((64, 48)))
     sampler = ctx.sampler(filter=filters)
     textures = [ctx.texture((4, 4), 1) for _ in range(UNITS)]
-    blocks = [ctx.buffer(reserve=1024) for _ in range(2)]  # a range of one on binding 0
     target.use()
     ctx.viewport = (3, 5, 41, 37)
     ctx.scissor = (1, 2, 30, 20)
@@ -257,10 +247,6 @@ def hostile_state(ctx: moderngl.Context, filters: tuple[int, int]) -> Iterator[N
         texture.use(unit)
         sampler.use(unit)
     gl.glActiveTexture(_TEXTURE0 + 3)
-    gl.glBindBufferRange(
-        _UNIFORM_BUFFER, 0, blocks[0].glo, ctypes.c_ssize_t(256), ctypes.c_ssize_t(128)
-    )
-    gl.glBindBuffer(_UNIFORM_BUFFER, blocks[1].glo)  # and the other on the generic binding
     gl.glClearColor(*(ctypes.c_float(c) for c in HOST_CLEAR_COLOR))
     gl.glClearDepth(ctypes.c_double(HOST_CLEAR_DEPTH))
     try:
@@ -275,9 +261,7 @@ def hostile_state(ctx: moderngl.Context, filters: tuple[int, int]) -> Iterator[N
         gl.glActiveTexture(_TEXTURE0)
         gl.glClearColor(*(ctypes.c_float(0.0) for _ in range(4)))
         gl.glClearDepth(ctypes.c_double(1.0))
-        gl.glBindBufferBase(_UNIFORM_BUFFER, 0, 0)
-        gl.glBindBuffer(_UNIFORM_BUFFER, 0)
-        for thing in (sampler, *textures, *blocks):
+        for thing in (sampler, *textures):
             thing.release()
         from dentdemo.gl.context import release
 

@@ -2,7 +2,9 @@
 // rectangle and depth slab (needs camera.glsl): as clip distances of the vertices (texel.vert,
 // texel.geom), or tested per fragment where CLIP_IN_FRAGMENT is 1 (RECT 1 draws one rectangle of
 // texels, whose corners lie on no surface).
-// u_clip (false: the whole map), u_clip_half and u_slab are job.glsl's.
+uniform bool u_clip;        // false: the whole map (creation, import)
+uniform vec2 u_clip_half;   // half width and height of the kept rectangle, camera metres
+uniform vec2 u_slab;        // kept view depths [near, far], metres along u_forward from u_eye
 
 // How far (metres) `world` lies inside each side of the footprint: the rectangle's four, then
 // the slab's near and far; >= 0 inside all.

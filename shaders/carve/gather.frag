@@ -26,7 +26,10 @@
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
 uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front), LINEAR
-// u_min_height, u_ceiling, u_pixel_diagonal and u_advance: job.glsl.
+uniform float u_min_height;      // -max_dent_depth of the target, metres
+uniform float u_ceiling;         // no texel of the target is higher than this, metres
+uniform float u_pixel_diagonal;  // a camera pixel's diagonal, metres
+uniform float u_advance;         // how far the tool was advanced along u_forward, metres
 
 out float f_height;
 

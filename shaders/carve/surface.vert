@@ -2,8 +2,10 @@
 // Passes 2 and 3: a body's mesh seen by the collision camera.
 #include "camera.glsl"
 
-// u_model, u_normal_matrix and u_near_clip (pass 2's one clip distance: no surface nearer than
-// this view depth, metres, lies before the tool; docs/carve.md) are job.glsl's.
+uniform mat4 u_model;          // world from local, metres
+uniform mat3 u_normal_matrix;  // world from local, for normals
+uniform float u_near_clip;     // pass 2 (one clip distance): no surface nearer than this view
+                               // depth, metres: it lies behind the tool (docs/carve.md)
 
 in vec3 in_position;  // local metres
 in vec3 in_normal;    // local, unit

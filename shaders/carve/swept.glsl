@@ -5,7 +5,9 @@
 #ifndef SWEPT
 #define SWEPT 0
 #endif
-// u_swept_a, u_swept_b, u_swept_radius: job.glsl (through camera.glsl).
+uniform vec3 u_swept_a;
+uniform vec3 u_swept_b;
+uniform float u_swept_radius;
 
 vec3 swept_axis_point(vec3 p) {
     vec3 ab = u_swept_b - u_swept_a;

@@ -9,7 +9,8 @@
 #define GUTTER 0
 #endif
 
-// u_model (world from local) and u_normal_matrix: job.glsl (through camera.glsl).
+uniform mat4 u_model;          // world from local, metres
+uniform mat3 u_normal_matrix;  // world from local, for normals
 
 in vec3 in_position;  // local metres
 in vec3 in_normal;    // local, unit

@@ -31,14 +31,12 @@ from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
     CHART,
     GUTTER,
-    JOB_BLOCK,
     RECT,
     VARIANT_KEYS,
     camera_uniforms,
     clip_uniforms,
     cube_grid,
     is_swept,
-    job_blocks,
     pose_uniforms,
     quad_kind,
     sphere_atlas_defines,
@@ -299,7 +297,6 @@ class Carver:
                 state,
                 samplers,
                 VARIANT_KEYS,
-                JOB_BLOCK,
             )
             for name, (state, samplers) in _SURFACE_PASSES.items()
             for swept, quad in ((False, 0), (True, 0), (True, 1), (True, 2))
@@ -313,7 +310,6 @@ class Carver:
         #: most this many texels of their boxes each (0: never; inf: always; the tests compare).
         self.rect_texels_per_triangle = RECT_TEXELS_PER_TRIANGLE
         self._texel = texture_space_passes(gl)
-        self._blocks = job_blocks(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
         #: Wraps each pass when set (the benchmark's GPU timer queries); names as in docs/carve.md.
@@ -568,14 +564,12 @@ class Carver:
             kind = uniforms.get("u_quad", 0)
             quad = kind if self.swept_quads and isinstance(kind, int) else 0
             draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
-            item = (job.viewport, draw, (body.maps.height, *inputs), None)
-            variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(
-                (item, (uniforms,))
-            )
-        with shared_batch(self.gl.ctx, fbo, _SURFACE_PASSES[name][0], self._blocks) as one:
+            item = (job.viewport, draw, (body.maps.height, *inputs), uniforms)
+            variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)
+        with shared_batch(self.gl.ctx, fbo, _SURFACE_PASSES[name][0]) as one:
             for variant, items in variants.items():
-                for item, block in items:
-                    one(self._surface[variant], *item, block=block)
+                for item in items:
+                    one(self._surface[variant], *item)
 
     def _draw_quad(self, prog: moderngl.Program) -> None:
         """quad.vert's four corners (no vertex data)."""
@@ -591,11 +585,13 @@ class Carver:
         items: list[tuple] = []
         for job, texel_draws in zip(jobs, draws, strict=True):
             cam, maps = job.camera, job.target.maps
-            block = (job.target_uniforms, clip_uniforms(cam, maps, cam.ring_slab))
+            uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
             for kind, draw, own in texel_draws:
                 pass_ = self._texel["normals", kind, False]
-                textures = (maps.height, maps.mask)
-                items.append((pass_, maps.normal_fbo, maps.size, draw, textures, own, block))
+                values = {**uniforms, **own} if own else uniforms
+                items.append(
+                    (pass_, maps.normal_fbo, maps.size, draw, (maps.height, maps.mask), values)
+                )
         self._texture_space(items)
 
     # -- pass 4 --------------------------------------------------------------------------------
@@ -607,32 +603,28 @@ class Carver:
         for job, texel_draws in zip(jobs, draws, strict=True):
             cam, maps = job.camera, job.target.maps
             px, py = cam.pixel_metres
-            extra = clip_uniforms(cam, maps, cam.slab)
-            extra |= {
+            uniforms = {
+                **job.target_uniforms,
+                **clip_uniforms(cam, maps, cam.slab),
                 "u_min_height": -maps.max_dent_depth,
                 "u_ceiling": maps.max_height,
                 "u_pixel_diagonal": math.hypot(px, py),
             }
-            block = (job.target_uniforms, extra)
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
-            swept = bool(job.target_uniforms["u_swept"])
             for kind, draw, own in texel_draws:
-                key = ("gather", kind, swept, job.oblique, job.convex)
-                items.append(
-                    (self._texel[key], maps.height_fbo, maps.size, draw, textures, own, block)
-                )
+                key = ("gather", kind, bool(uniforms["u_swept"]), job.oblique, job.convex)
+                values = {**uniforms, **own} if own else uniforms
+                items.append((self._texel[key], maps.height_fbo, maps.size, draw, textures, values))
         self._texture_space(items)
 
     def _texture_space(self, items: list[tuple]) -> None:
         """Passes of one state drawn over `items` (pass, framebuffer, map size, draw, textures,
-        the draw's own uniforms or None, its job block's parts) in order, each over the whole
-        of its framebuffer's map. The draws into one map's texels are disjoint (a chart draw
-        keeps the texels in its chart, a gutter draw those outside), so their order changes no
-        texel."""
+        uniforms) in order, each over the whole of its framebuffer's map. The draws into one
+        map's texels are disjoint (a chart draw keeps the texels in its chart, a gutter draw
+        those outside), so their order changes no texel."""
         if not items:
             return
-        first = items[0]
-        with shared_batch(self.gl.ctx, first[1], first[0].state, self._blocks) as one:
-            for pass_, fbo, size, draw, textures, own, block in items:
-                one(pass_, (0, 0, *size), draw, textures, own, into=fbo, block=block)
+        with shared_batch(self.gl.ctx, items[0][1], items[0][0].state) as one:
+            for pass_, fbo, size, draw, textures, uniforms in items:
+                one(pass_, (0, 0, *size), draw, textures, uniforms, into=fbo)

@@ -11,7 +11,6 @@ from numpy.typing import NDArray
 from dentdemo.carve.camera import CollisionCamera
 from dentdemo.carve.constants import shader_defines
 from dentdemo.carve.linear import column_scale, inverse3
-from dentdemo.gl.blocks import BlockLayout, BlockStream
 from dentdemo.gl.context import GLContext
 from dentdemo.gl.passes import MIN_BLEND, Pass, PassState
 from dentdemo.gl.shaders import program
@@ -19,9 +18,6 @@ from dentdemo.gl.shaders import program
 if TYPE_CHECKING:
     from dentdemo.carve.surface import GpuMesh, SurfaceMaps
     from dentdemo.mesh.mesh import Mesh
-
-#: The values every carve pass takes per job and drawn body, as one uniform block (job.glsl).
-JOB_BLOCK = BlockLayout.of_file("carve/job.glsl")
 
 #: Clip distances clip.glsl writes (camera rectangle: 4, depth slab: 2).
 CLIP_DISTANCES = 6
@@ -79,19 +75,9 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
                     geometry,
                     defines=shader_defines(GUTTER=int(draw == GUTTER), **defines),
                 )
-                passes[(name, draw, *variant)] = Pass(
-                    name, prog, state, samplers, VARIANT_KEYS, JOB_BLOCK
-                )
+                passes[(name, draw, *variant)] = Pass(name, prog, state, samplers, VARIANT_KEYS)
     gl.cache[key] = passes
     return passes
-
-
-def job_blocks(gl: GLContext) -> BlockStream:
-    """The carve passes' stream of JOB_BLOCK blocks (one per context)."""
-    key = "carve:job-blocks"
-    if key not in gl.cache:
-        gl.cache[key] = BlockStream(gl.ctx)
-    return gl.cache[key]
 
 
 def sphere_atlas_defines() -> dict[str, str]:
@@ -129,8 +115,7 @@ def rebuild_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None
             (0, 0, *maps.size),
             gpu_mesh.drawer(triangles, f"texels{kind}"),
             (maps.height, maps.mask),
-            block=(uniforms,),
-            blocks=job_blocks(gl),
+            uniforms,
         )
 
 

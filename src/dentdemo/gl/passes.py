@@ -21,13 +21,8 @@ from functools import partial
 
 import moderngl
 
-from dentdemo.errors import ShaderError
-from dentdemo.gl.blocks import BlockLayout, BlockStream, packer
 from dentdemo.gl.library import gl_library
-from dentdemo.gl.shaders import set_uniform, set_uniforms, strict_uniforms
-
-#: A draw's values of its pass's uniform block: mappings, later ones winning (`Pass.block`).
-BlockParts = tuple[Mapping[str, object], ...]
+from dentdemo.gl.shaders import set_uniform, set_uniforms
 
 GL_CLIP_DISTANCE0 = 0x3000
 #: Clip distances a pass may enable (GL 3.3 guarantees at least 8).
@@ -181,9 +176,6 @@ class Pass:
     samplers: tuple[str, ...] = ()
     #: Keys of the uniforms given to `run` that pick the pass's variant and name no uniform.
     selectors: frozenset[str] = frozenset()
-    #: The program's uniform block at binding 0, whose values each draw gives as `block`
-    #: (packed into a `BlockStream` and bound by range), or None.
-    block: BlockLayout | None = None
 
     def run(
         self,
@@ -193,21 +185,17 @@ class Pass:
         draw: Callable[[moderngl.Program], None],
         textures: Sequence[Sampled] = (),
         uniforms: Mapping[str, object] | None = None,
-        block: BlockParts | None = None,
-        blocks: BlockStream | None = None,
     ) -> None:
-        with self.batch(ctx, fbo, blocks) as one:
-            one(viewport, draw, textures, uniforms, block=block)
+        with self.batch(ctx, fbo) as one:
+            one(viewport, draw, textures, uniforms)
 
     @contextmanager
-    def batch(
-        self, ctx: moderngl.Context, fbo: moderngl.Framebuffer, blocks: BlockStream | None = None
-    ) -> Iterator[Draw]:
+    def batch(self, ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> Iterator[Draw]:
         """The pass run many times into `fbo`, its state applied once: yields
-        `one(viewport, draw, textures, uniforms, into=None, block=None)`, each call as `run`
-        with those arguments; `into` draws into another framebuffer (bound when it changes, the
-        state kept: a pass over many maps)."""
-        with shared_batch(ctx, fbo, self.state, blocks) as one:
+        `one(viewport, draw, textures, uniforms, into=None)`, each call as `run` with those
+        arguments; `into` draws into another framebuffer (bound when it changes, the state
+        kept: a pass over many maps)."""
+        with shared_batch(ctx, fbo, self.state) as one:
             yield partial(one, self)
 
 
@@ -217,22 +205,14 @@ SharedDraw = Callable[..., None]
 
 @contextmanager
 def shared_batch(
-    ctx: moderngl.Context,
-    fbo: moderngl.Framebuffer,
-    state: PassState,
-    blocks: BlockStream | None = None,
+    ctx: moderngl.Context, fbo: moderngl.Framebuffer, state: PassState
 ) -> Iterator[SharedDraw]:
     """Passes that share `state` (variants of one pass: programs built from one source with
     other defines) run many times, the state applied once: yields `one(pass_, viewport, draw,
-    textures, uniforms, into=None, block=None)`, each call as `pass_.run` with those arguments
-    into `fbo`, or into `into` (bound when it changes). Drawing a map's variants one after the
-    other binds its framebuffer once, where a batch per variant would bind it once per variant.
-    `block`: the values of the pass's uniform block (`Pass.block`), mappings of which later
-    ones win, written to `blocks` (unless they are the mappings written last) and bound at
-    binding 0 for the draw."""
+    textures, uniforms, into=None)`, each call as `pass_.run` with those arguments into `fbo`,
+    or into `into` (bound when it changes). Drawing a map's variants one after the other binds
+    its framebuffer once, where a batch per variant would bind it once per variant."""
     bound = [fbo]
-    block_at: list[int | None] = [None]  # the range of `blocks` bound since the batch began
-    strict = strict_uniforms()
     #: What each texture unit holds since the batch bound it, and the viewport set since the
     #: framebuffer was bound (binding one sets its own): a draw sets again only what changed.
     #: The batch's draws alone set either meanwhile. A call that sets the same again is not
@@ -249,7 +229,6 @@ def shared_batch(
         textures: Sequence[Sampled] = (),
         uniforms: Mapping[str, object] | None = None,
         into: moderngl.Framebuffer | None = None,
-        block: BlockParts | None = None,
     ) -> None:
         if id(pass_.state) not in checked:
             if pass_.state != state:
@@ -275,21 +254,6 @@ def shared_batch(
             named[prog] = pass_.samplers
         if uniforms:
             set_uniforms(prog, uniforms, pass_.selectors)
-        if block is not None:
-            if pass_.block is None or blocks is None:
-                raise ValueError(f"pass {pass_.name!r} was given a block it has no stream for")
-            if strict:  # as set_uniforms: a name no member has (nor a selector) is an error
-                known = pass_.block.names() | pass_.selectors
-                unknown = sorted({name for part in block for name in part} - known)
-                if unknown:
-                    raise ShaderError(
-                        f"pass {pass_.name!r}: its block {pass_.block.name} has no member "
-                        f"{unknown[0]!r}"
-                    )
-            at = blocks.place(packer(pass_.block), block)
-            if at != block_at[0]:
-                blocks.bind(at, pass_.block.size)
-                block_at[0] = at
         if viewport != view[0]:
             ctx.viewport = viewport
             view[0] = viewport
