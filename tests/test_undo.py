@@ -252,6 +252,29 @@ def test_dropped_snapshots_textures_serve_the_next_entries(gl, scene, monkeypatc
     )  # deleted
 
 
+def test_a_snapshot_makes_no_framebuffer_and_undoes_bit_for_bit(gl, scene, monkeypatch):
+    """A press recorded into a fresh log makes its snapshots' textures but no framebuffer (each
+    copy attaches a snapshot texture to one of the log's two), and undo through them puts both
+    bodies' maps back bit for bit."""
+    plate, ball, carver = scene
+    log = _own_log(carver, UNDO_DEPTH, UNDO_BYTES)
+    try:
+        before = _maps(gl, plate, ball)
+        made = []
+        real = moderngl.Context.framebuffer
+        monkeypatch.setattr(
+            moderngl.Context, "framebuffer", lambda *a, **k: made.append(a) or real(*a, **k)
+        )
+        _press(carver, plate, ball, 3)
+        monkeypatch.undo()
+        assert len(log) == 1 and log.entries[-1] and not made
+        assert _maps(gl, plate, ball) != before
+        assert carver.undo()
+        assert _maps(gl, plate, ball) == before, _differences(_maps(gl, plate, ball), before)
+    finally:
+        log.release()
+
+
 def test_depth_bound_drops_the_oldest(gl, scene):
     """A log 4 deep after 6 hits undoes the last 4 (back to the maps after hit 2) and then
     nothing: undo past the bound is a no-op returning False."""

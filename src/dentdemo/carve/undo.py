@@ -30,6 +30,7 @@ idle for reuse are at most `IDLE_BYTES`.
 
 from __future__ import annotations
 
+import ctypes
 import math
 from collections import deque
 from collections.abc import Sequence
@@ -80,11 +81,14 @@ def size_class(side: int) -> int:
 Rect = tuple[int, int, int, int]
 #: A box of texels: (x0, y0, x1, y1), half-open.
 Box = tuple[int, int, int, int]
-#: One copy: (read framebuffer, its lower-left texel, draw framebuffer, its lower-left texel,
-#: width, height).
-Copy = tuple[moderngl.Framebuffer, tuple[int, int], moderngl.Framebuffer, tuple[int, int], int, int]
+#: Either side of a copy: a map's framebuffer, or a snapshot texture.
+Side = moderngl.Framebuffer | moderngl.Texture
+#: One copy: (what is read, its lower-left texel, what is written, its lower-left texel, width,
+#: height).
+Copy = tuple[Side, tuple[int, int], Side, tuple[int, int], int, int]
 
 _READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER, _FRAMEBUFFER = 0x8CA8, 0x8CA9, 0x8D40
+_COLOR_ATTACHMENT0, _TEXTURE_2D = 0x8CE0, 0x0DE1
 _COLOR_BUFFER_BIT, _NEAREST = 0x4000, 0x2600
 
 
@@ -187,20 +191,19 @@ def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
 
 @dataclass(frozen=True)
 class SnapshotTextures:
-    """A pair of snapshot textures of one size (texels) and their framebuffers."""
+    """A pair of snapshot textures of one size (texels). They have no framebuffers of their
+    own: a copy attaches them to one of the log's two (`UndoLog._blit`)."""
 
     size: tuple[int, int]
     height: moderngl.Texture
     normal: moderngl.Texture
-    height_fbo: moderngl.Framebuffer
-    normal_fbo: moderngl.Framebuffer
 
     @property
     def bytes(self) -> int:
         return self.size[0] * self.size[1] * SNAPSHOT_BYTES_PER_TEXEL
 
     def release(self) -> None:
-        release(self.height_fbo, self.normal_fbo, self.height, self.normal)
+        release(self.height, self.normal)
 
 
 @dataclass
@@ -243,6 +246,9 @@ class UndoLog:
         #: Texture pairs of dropped snapshots by size, for reuse; `idle_bytes` in all.
         self._idle: dict[tuple[int, int], list[SnapshotTextures]] = {}
         self.idle_bytes = 0
+        #: The framebuffers a copy attaches snapshot textures to (read, draw; made when first
+        #: needed).
+        self._fbos: tuple[int, int] | None = None
 
     def __len__(self) -> int:
         return len(self.entries)
@@ -272,8 +278,8 @@ class UndoLog:
         for snap in entry:
             x, y, w, h = snap.rect
             copies += [
-                (snap.maps.height_fbo, (x, y), snap.textures.height_fbo, (0, 0), w, h),
-                (snap.maps.normal_fbo, (x, y), snap.textures.normal_fbo, (0, 0), w, h),
+                (snap.maps.height_fbo, (x, y), snap.textures.height, (0, 0), w, h),
+                (snap.maps.normal_fbo, (x, y), snap.textures.normal, (0, 0), w, h),
             ]
         self._blit(copies)
         self.entries.append(entry)
@@ -289,8 +295,8 @@ class UndoLog:
         for snap in entry:  # the rectangles of one entry and map are disjoint: any order
             x, y, w, h = snap.rect
             copies += [
-                (snap.textures.height_fbo, (0, 0), snap.maps.height_fbo, (x, y), w, h),
-                (snap.textures.normal_fbo, (0, 0), snap.maps.normal_fbo, (x, y), w, h),
+                (snap.textures.height, (0, 0), snap.maps.height_fbo, (x, y), w, h),
+                (snap.textures.normal, (0, 0), snap.maps.normal_fbo, (x, y), w, h),
             ]
         with preserved(self.gl.ctx):
             self._blit(copies)
@@ -314,8 +320,11 @@ class UndoLog:
             self._drop(self.entries.popleft())
 
     def release(self) -> None:
-        """Every snapshot and idle texture deleted."""
+        """Every snapshot and idle texture deleted, and the framebuffers of the copies."""
         self.clear()
+        if self._fbos is not None:
+            gl_library().glDeleteFramebuffers(2, (ctypes.c_uint * 2)(*self._fbos))
+            self._fbos = None
         for pairs in self._idle.values():
             for pair in pairs:
                 pair.release()
@@ -348,25 +357,48 @@ class UndoLog:
         normal = ctx.texture(size, 4, dtype="f1")
         for texture in (height, normal):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        pair = SnapshotTextures(
-            size, height, normal, ctx.framebuffer([height]), ctx.framebuffer([normal])
-        )
-        return Snapshot(maps, rect, pair)
+        return Snapshot(maps, rect, SnapshotTextures(size, height, normal))
 
     def _blit(self, copies: list[Copy]) -> None:
         """glBlitFramebuffer, NEAREST, of each copy's rectangle (same format on both sides:
-        exact); the scissor test is off (`preserved` starts from `neutral`). The framebuffer
-        moderngl holds bound is bound again afterwards."""
+        exact); the scissor test is off (`preserved` starts from `neutral`). A snapshot texture
+        is read or written through one of the log's two framebuffers, attached for the copy
+        (making a framebuffer per snapshot cost llvmpipe as much as its two textures). A map's
+        framebuffer (moderngl's) is bound first and again afterwards: moderngl applies its
+        colour mask (ours write all) and keeps it as the one bound."""
         gl = gl_library()
-        # moderngl's colour mask of a framebuffer is applied when it is bound; ours write all.
-        copies[0][2].use()
+        maps = next(side for copy in copies for side in (copy[0], copy[2]) if _is_fbo(side))
+        maps.use()
+        read, draw = self._framebuffers()
         for source, (sx, sy), target, (tx, ty), w, h in copies:
-            gl.glBindFramebuffer(_READ_FRAMEBUFFER, source.glo)
-            gl.glBindFramebuffer(_DRAW_FRAMEBUFFER, target.glo)
+            _bind(gl, _READ_FRAMEBUFFER, source, read)
+            _bind(gl, _DRAW_FRAMEBUFFER, target, draw)
             gl.glBlitFramebuffer(
                 sx, sy, sx + w, sy + h, tx, ty, tx + w, ty + h, _COLOR_BUFFER_BIT, _NEAREST
             )
-        gl.glBindFramebuffer(_FRAMEBUFFER, copies[0][2].glo)
+        gl.glBindFramebuffer(_FRAMEBUFFER, maps.glo)
+
+    def _framebuffers(self) -> tuple[int, int]:
+        """The log's two framebuffers (GL names) that snapshot textures are attached to."""
+        if self._fbos is None:
+            names = (ctypes.c_uint * 2)()
+            gl_library().glGenFramebuffers(2, names)
+            self._fbos = (names[0], names[1])
+        return self._fbos
+
+
+def _is_fbo(side: Side) -> bool:
+    return isinstance(side, moderngl.Framebuffer)
+
+
+def _bind(gl: ctypes.CDLL, target: int, side: Side, own: int) -> None:
+    """Bind a map's framebuffer to `target`, or the log's framebuffer `own` with a snapshot
+    texture as its colour attachment."""
+    if _is_fbo(side):
+        gl.glBindFramebuffer(target, side.glo)
+        return
+    gl.glBindFramebuffer(target, own)
+    gl.glFramebufferTexture2D(target, _COLOR_ATTACHMENT0, _TEXTURE_2D, side.glo, 0)
 
 
 def restore_pristine(
