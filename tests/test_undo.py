@@ -220,6 +220,16 @@ def test_size_classes_by_hand():
     assert {side: size_class(side) for side in expected} == expected
 
 
+def _made_during(monkeypatch, kind: str, call) -> list:
+    """The GL objects of `kind` ("texture", "framebuffer") moderngl made while `call` ran."""
+    made: list = []
+    real = getattr(moderngl.Context, kind)
+    with monkeypatch.context() as patch:
+        patch.setattr(moderngl.Context, kind, lambda *a, **k: made.append(a) or real(*a, **k))
+        call()
+    return made
+
+
 def test_dropped_snapshots_textures_serve_the_next_entries(gl, scene, monkeypatch):
     """A log one entry deep: each press drops the last entry, and the same press again makes
     its snapshots in the textures of the one dropped, making no texture; the cleared log keeps
@@ -229,13 +239,7 @@ def test_dropped_snapshots_textures_serve_the_next_entries(gl, scene, monkeypatc
     try:
         _press(carver, plate, ball, 0)
         first = {id(snap.textures) for snap in log.entries[-1]}
-        made = []
-        real = moderngl.Context.texture
-        monkeypatch.setattr(
-            moderngl.Context, "texture", lambda *a, **k: made.append(a) or real(*a, **k)
-        )
-        _press(carver, plate, ball, 0)
-        monkeypatch.undo()
+        made = _made_during(monkeypatch, "texture", lambda: _press(carver, plate, ball, 0))
         entry = list(log.entries[-1])
         assert {id(snap.textures) for snap in entry} == first and not made
         assert len(log) == 1 and log.idle_bytes == 0 and log.bytes == _entry_bytes(entry)
@@ -260,13 +264,7 @@ def test_a_snapshot_makes_no_framebuffer_and_undoes_bit_for_bit(gl, scene, monke
     log = _own_log(carver, UNDO_DEPTH, UNDO_BYTES)
     try:
         before = _maps(gl, plate, ball)
-        made = []
-        real = moderngl.Context.framebuffer
-        monkeypatch.setattr(
-            moderngl.Context, "framebuffer", lambda *a, **k: made.append(a) or real(*a, **k)
-        )
-        _press(carver, plate, ball, 3)
-        monkeypatch.undo()
+        made = _made_during(monkeypatch, "framebuffer", lambda: _press(carver, plate, ball, 3))
         assert len(log) == 1 and log.entries[-1] and not made
         assert _maps(gl, plate, ball) != before
         assert carver.undo()
