@@ -339,7 +339,8 @@ def test_hostile_host_state_neither_changes_the_dent_nor_is_changed(gl, sampler_
 def test_a_carver_that_gives_no_state_back_dents_as_under_clean_state(gl):
     """The sandbox's carver (keep_host_state False: it owns its context) under the hostile
     state: the same heights and normal map as the clean press, bit for bit, and the batch's
-    passes leave the neutral state (no blending, depth test, culling or rasterizer discard)."""
+    passes leave the neutral state (no blending, depth test, culling, rasterizer discard or
+    scissor test)."""
     ctx = gl.ctx
     expected, expected_normals = clean_press(ctx)
     gl_raw = _raw()

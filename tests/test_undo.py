@@ -203,12 +203,13 @@ def _entry_bytes(entry) -> int:
     texture holding its rectangle and at most 1.5 times its sides past 16 texels."""
     total = 0
     for snap in entry:
-        w, h = snap.height.size
+        height, normal = snap.textures.height, snap.textures.normal
+        w, h = height.size
         rw, rh = snap.rect[2:]
         assert rw <= w <= max(16, 1.5 * rw) and rh <= h <= max(16, 1.5 * rh)
-        assert snap.height.dtype == "f4" and snap.height.components == 1
-        assert snap.normal.size == (w, h) and snap.normal.dtype == "f1"
-        assert snap.normal.components == 4
+        assert height.dtype == "f4" and height.components == 1
+        assert normal.size == (w, h) and normal.dtype == "f1"
+        assert normal.components == 4
         total += w * h * 4 + w * h * 4
     return total
 

@@ -216,14 +216,6 @@ class Snapshot:
     textures: SnapshotTextures
 
     @property
-    def height(self) -> moderngl.Texture:
-        return self.textures.height
-
-    @property
-    def normal(self) -> moderngl.Texture:
-        return self.textures.normal
-
-    @property
     def bytes(self) -> int:
         """The texture bytes the snapshot holds (its size class, not only its rectangle)."""
         return self.textures.bytes

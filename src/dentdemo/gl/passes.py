@@ -217,10 +217,9 @@ def shared_batch(
     #: framebuffer was bound (binding one sets its own): a draw sets again only what changed.
     #: The batch's draws alone set either meanwhile. A call that sets the same again is not
     #: free: Mesa marks the state changed, and llvmpipe's draw after it costs more.
-    units: list[Sampled | None] = []
+    units: dict[int, Sampled] = {}
     view: list[tuple[int, int, int, int] | None] = [None]
     named: dict[moderngl.Program, tuple[str, ...]] = {}  # the samplers named, by program
-    checked: dict[int, PassState] = {id(state): state}  # states found equal to the batch's
 
     def one(
         pass_: Pass,
@@ -230,10 +229,8 @@ def shared_batch(
         uniforms: Mapping[str, object] | None = None,
         into: moderngl.Framebuffer | None = None,
     ) -> None:
-        if id(pass_.state) not in checked:
-            if pass_.state != state:
-                raise ValueError(f"pass {pass_.name!r} has other state than its shared batch")
-            checked[id(pass_.state)] = pass_.state
+        if pass_.state is not state and pass_.state != state:
+            raise ValueError(f"pass {pass_.name!r} has other state than its shared batch")
         if into is not None and into is not bound[0]:
             into.use()  # applies its own masks: the pass's depth mask again
             gl_library().glDepthMask(int(state.depth_write))
@@ -243,9 +240,7 @@ def shared_batch(
         if len(pass_.samplers) != len(textures):
             raise ValueError(f"pass {pass_.name!r} samples {len(pass_.samplers)} textures")
         for unit, sampled in enumerate(textures):
-            if unit == len(units):
-                units.append(None)
-            if not _same(units[unit], sampled):
+            if not _same(units.get(unit), sampled):
                 bind(ctx, sampled, unit)
                 units[unit] = sampled
         if named.get(prog) != pass_.samplers:  # its samplers named to their units (GL keeps)
