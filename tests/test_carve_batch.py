@@ -360,6 +360,44 @@ def test_a_batch_binds_each_map_once_a_pass(gl, monkeypatch):
         bodies.release()
 
 
+def test_a_batch_hands_its_last_pass_to_the_rasteriser_before_returning(gl, monkeypatch):
+    """The last GL call a batch makes is glFlush, after the last draw of pass 5 (and another
+    follows the camera passes): a software rasteriser then draws the normals while the host goes
+    on with its CPU work, instead of when the host's next call that waits starts them. Checked
+    from the calls themselves: the draws (VertexArray.render) and flushes in order."""
+    import moderngl
+
+    from dentdemo.carve import carver as carver_module
+
+    bodies = Bodies(gl)
+    carver = Carver(gl)
+    try:
+        plate, balls = _scene(bodies, 2)
+        planned = [carver.plan(*p) for p in _presses(plate, balls, SPOTS[:2], [0.004] * 2)]
+        calls: list[str] = []
+        render = moderngl.VertexArray.render
+        flush = carver_module.flush
+
+        def drawing(vao, *args, **kwargs):
+            calls.append("draw")
+            return render(vao, *args, **kwargs)
+
+        def flushing() -> None:
+            calls.append("flush")
+            flush()
+
+        monkeypatch.setattr(moderngl.VertexArray, "render", drawing)
+        monkeypatch.setattr(carver_module, "flush", flushing)
+        carver.carve_hits(planned)
+        monkeypatch.undo()
+        assert calls.count("flush") == 2 and calls[-1] == "flush"
+        assert calls[calls.index("flush") - 1] == "draw" and calls[-2] == "draw"
+        assert (heights(gl, plate) < DENTED).sum() > 10  # the plate was dented
+    finally:
+        carver.release()
+        bodies.release()
+
+
 def _posed_spheres(mesh, model, origin, axes, clusters: bool):
     """The triangles' (or clusters') bounding spheres in camera coordinates, from their
     definition: world = model (local), camera = axes (world - origin), radii scaled by the

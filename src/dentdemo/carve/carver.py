@@ -388,6 +388,10 @@ class Carver:
             self._gather_passes(by_map, draws)
         with self._timed("normals"):
             self._normal_passes(by_map, draws)
+        # And pass 5 now, for the same reason: the host's CPU work after the batch (the
+        # sandbox's collision proxies) then overlaps it, instead of its first GL call that
+        # waits (or the host's glFinish) starting it.
+        flush()
 
     def measure_passes(
         self,
