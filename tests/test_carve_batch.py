@@ -398,6 +398,52 @@ def test_a_batch_hands_its_last_pass_to_the_rasteriser_before_returning(gl, monk
         bodies.release()
 
 
+def test_the_hosts_work_runs_once_while_the_gathers_are_drawn(gl, monkeypatch):
+    """`meanwhile` runs exactly once a call: after the gathers' last draw has been handed to the
+    rasteriser (a glFlush after it) and before the first normal rebuild, also when the batch is
+    split over the atlas (once, in the first part) and when no hit has a direction (then alone)."""
+    from dentdemo.carve import carver as carver_module
+
+    bodies = Bodies(gl)
+    carver = Carver(gl, max_resolution=20)  # an atlas of 64 x 32: 3 tiles a part
+    try:
+        plate, balls = _scene(bodies, len(SPOTS))
+        presses = _presses(plate, balls, SPOTS, [0.004] * len(SPOTS))
+        calls: list[str] = []
+        for name in ("_gather_passes", "_normal_passes"):
+            method = getattr(Carver, name)
+
+            def marked(self, *args, _method=method, _name=name):
+                calls.append(_name + " begins")
+                _method(self, *args)
+                calls.append(_name + " ends")
+
+            monkeypatch.setattr(Carver, name, marked)
+        flush = carver_module.flush
+        monkeypatch.setattr(carver_module, "flush", lambda: calls.append("flush") or flush())
+        jobs = carver.carve_many(presses, meanwhile=lambda: calls.append("meanwhile"))
+        assert len(jobs) == 12 and calls.count("_gather_passes begins") > 1  # parts
+        assert calls.count("meanwhile") == 1
+        at = calls.index("meanwhile")
+        assert calls[at - 2 : at + 2] == [
+            "_gather_passes ends",
+            "flush",
+            "meanwhile",
+            "_normal_passes begins",
+        ]
+        assert calls.index("_normal_passes begins") > at  # no rebuild before it
+        second = calls.index("_gather_passes begins", calls.index("_gather_passes ends"))
+        assert at < second  # in the first part
+        calls.clear()
+        far = translation((5.0, 0.04, 5.0))  # a ball nowhere near the plate: no direction
+        balls[0].model = far
+        assert carver.carve_many([presses[0]], meanwhile=lambda: calls.append("meanwhile")) == []
+        assert calls == ["meanwhile"]
+    finally:
+        carver.release()
+        bodies.release()
+
+
 def _posed_spheres(mesh, model, origin, axes, clusters: bool):
     """The triangles' (or clusters') bounding spheres in camera coordinates, from their
     definition: world = model (local), camera = axes (world - origin), radii scaled by the

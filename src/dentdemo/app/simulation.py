@@ -260,26 +260,31 @@ class Simulation:
             taken.append(self.queue.popleft())
         presses = [press for press in map(self._press, taken) if press is not None]
         if presses:
+            before: dict[str, tuple | None] = {}  # the proxies as they were, for undo
+
+            def follow() -> None:  # reads no map: the carve runs it while its gathers are drawn
+                for request, _ in presses:
+                    for body_id, depth in (
+                        (request.impact.body_a, request.depth_a),
+                        (request.impact.body_b, request.depth_b),
+                    ):
+                        if depth > 0.0:
+                            stats = self.dents.setdefault(body_id, DentStats())
+                            stats.count += 1
+                            stats.deepest = max(stats.deepest, depth)
+                        if body_id not in before:
+                            p = self.proxies.get(body_id)
+                            before[body_id] = (
+                                None
+                                if p is None
+                                else (p.inward.copy(), p.shaped.copy(), p.rebuilt_at)
+                            )
+                    self._follow_dents(request)
+
             # One batch: every hit reads the heights from before it (docs/carve.md, "Batches").
-            self.carver.carve_many([press for _, press in presses])
+            self.carver.carve_many([press for _, press in presses], meanwhile=follow)
             self.carved_points.extend(request.impact.point for request, _ in presses)
             self.last_hit = presses[-1][0]
-            before: dict[str, tuple | None] = {}  # the proxies as they were, for undo
-            for request, _ in presses:
-                for body_id, depth in (
-                    (request.impact.body_a, request.depth_a),
-                    (request.impact.body_b, request.depth_b),
-                ):
-                    if depth > 0.0:
-                        stats = self.dents.setdefault(body_id, DentStats())
-                        stats.count += 1
-                        stats.deepest = max(stats.deepest, depth)
-                    if body_id not in before:
-                        p = self.proxies.get(body_id)
-                        before[body_id] = (
-                            None if p is None else (p.inward.copy(), p.shaped.copy(), p.rebuilt_at)
-                        )
-                self._follow_dents(request)
             if len(self.undo_log):
                 self._proxy_history.append(before)
             else:  # a batch too large to keep empties the log: nothing before it can be undone

@@ -349,27 +349,44 @@ class Carver:
         """
         return self.carve_many([(target, tool, contact, target_depth, tool_depth)])
 
-    def carve_many(self, presses: Sequence[Press]) -> list[CarveJob]:
+    def carve_many(
+        self, presses: Sequence[Press], meanwhile: Callable[[], None] | None = None
+    ) -> list[CarveJob]:
         """Every hit of `presses` in one batch (docs/carve.md, "Batches"): all of them read the
         heights from before the batch, each pass runs once for all hits, and where two hits dent
         the same texels the deeper wins (MIN). A batch whose cameras do not fit the atlas
-        together is carved as consecutive batches. Returns the directions carved."""
-        return self.carve_hits(self.plan_many(presses))
+        together is carved as consecutive batches. Returns the directions carved. `meanwhile`:
+        the host's CPU work that reads no map, run once while the gathers are drawn (see
+        `carve_hits`)."""
+        return self.carve_hits(self.plan_many(presses), meanwhile)
 
-    def carve_hits(self, hits: list[list[CarveJob]]) -> list[CarveJob]:
+    def carve_hits(
+        self, hits: list[list[CarveJob]], meanwhile: Callable[[], None] | None = None
+    ) -> list[CarveJob]:
         """Passes 2-5 of planned hits (each its list of directions) as one batch (see
-        `carve_many`); returns the directions with their tiles."""
+        `carve_many`); returns the directions with their tiles. `meanwhile` runs once, after
+        the first batch's gathers are handed to the rasteriser and before its normal rebuilds:
+        a software rasteriser draws the gathers while the CPU does it, where pass 5's first
+        draw would otherwise wait for them (on llvmpipe sampling a map the gathers wrote
+        waits for all queued work). It runs (once) also when no hit has a direction."""
         placed: list[CarveJob] = []
         if any(hits):
             kept = preserved if self.keep_host_state else _from_neutral
             with kept(self.gl.ctx):  # the host's GL state, as it left it (or not: the app's)
                 for batch in self.scratch.pack([hit for hit in hits if hit]):
-                    self._run(batch, None if placed else hits)
+                    self._run(batch, None if placed else hits, None if placed else meanwhile)
                     placed += batch
             self.last_jobs = placed
+        elif meanwhile is not None:
+            meanwhile()
         return placed
 
-    def _run(self, jobs: list[CarveJob], record: list[list[CarveJob]] | None) -> None:
+    def _run(
+        self,
+        jobs: list[CarveJob],
+        record: list[list[CarveJob]] | None,
+        meanwhile: Callable[[], None] | None = None,
+    ) -> None:
         """Passes 3, 2, 4 and 5 of every direction of a batch (pass 2 reads pass 3's front
         faces): one clear of the atlas per camera pass, the gathers and normal rebuilds grouped
         by the map they write. The undo log (if any) records `record` (every hit of the call:
@@ -386,6 +403,9 @@ class Carver:
         draws = [list(_texel_draws(job, rects, quad)) for job in by_map]  # passes 4 and 5 share
         with self._timed("gather"):
             self._gather_passes(by_map, draws)
+        if meanwhile is not None:
+            flush()  # the gathers drawn while the host's work runs
+            meanwhile()
         with self._timed("normals"):
             self._normal_passes(by_map, draws)
         # And pass 5 now, for the same reason: the host's CPU work after the batch (the
