@@ -390,7 +390,8 @@ class Carver:
         """Passes 3, 2, 4 and 5 of every direction of a batch (pass 2 reads pass 3's front
         faces): one clear of the atlas per camera pass, the gathers and normal rebuilds grouped
         by the map they write. The undo log (if any) records `record` (every hit of the call:
-        one entry, the maps before all of it) before the first gather writes."""
+        one entry, the maps before all of it) before the first gather writes; `meanwhile` (if
+        any) runs once the gathers are flushed, before the normal rebuilds."""
         self._camera_stage(jobs)
         # Hand passes 3 and 2 to the rasteriser now: a software one draws them while the CPU
         # goes on (the undo log's snapshot, the gathers' draws), instead of when the first
@@ -408,9 +409,8 @@ class Carver:
             meanwhile()
         with self._timed("normals"):
             self._normal_passes(by_map, draws)
-        # And pass 5 now, for the same reason: the host's CPU work after the batch (the
-        # sandbox's collision proxies) then overlaps it, instead of its first GL call that
-        # waits (or the host's glFinish) starting it.
+        # And pass 5 now, for the same reason: the host's CPU work after the batch then
+        # overlaps it, instead of its first GL call that waits (or its glFinish) starting it.
         flush()
 
     def measure_passes(
