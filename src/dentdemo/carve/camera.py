@@ -55,7 +55,8 @@ class CollisionCamera:
     #: target's in the view and the slab grown by the ring (passes 2, 4 and 5).
     tool_view: NDArray[np.int64]
     target_texels: NDArray[np.int64]
-    #: Those of `target_texels` on a chart border (the gutter draws of passes 4 and 5).
+    #: Those of `target_texels` on a chart border (the gutter draws of passes 4 and 5); none
+    #: where the target's charts fill its map (`Mesh.charts_fill_map`: it has no gutter).
     target_gutter: NDArray[np.int64]
     #: What is worked out from the lists when first needed (undo.footprint_boxes).
     derived: dict[str, object] = field(default_factory=dict, compare=False, repr=False)
@@ -307,13 +308,15 @@ def collision_cameras(
         ):
             cameras.append(None)
             continue
-        border = draft.target.mesh.chart_border()
+        mesh = draft.target.mesh
+        # A map whose charts fill it has no gutter texel to draw (Mesh.charts_fill_map).
+        gutter = texels[:0] if mesh.charts_fill_map() else texels[mesh.chart_border()[texels]]
         cameras.append(
             CollisionCamera(
                 **draft.fields,  # type: ignore[arg-type]
                 tool_view=tool_view,
                 target_texels=texels,
-                target_gutter=texels[border[texels]],
+                target_gutter=gutter,
             )
         )
     return cameras

@@ -255,6 +255,35 @@ class Mesh:
         self._border_cache = cached
         return cached
 
+    def charts_fill_map(self) -> bool:
+        """Whether the UV triangles tile the whole unit square (a plate's one chart): each lies
+        in it and turns the same way, they cover an area of exactly 1 and every chart-border
+        edge (`chart_border`) lies on a side of the square. Then every point inside the square
+        lies in exactly one triangle, so every texel centre of a map lies in a chart and the map
+        has no gutter texel: the carve draws no gutter there (passes 4 and 5 would discard
+        every texel of it). Cached."""
+        cached = getattr(self, "_fills_cache", None)
+        if cached is not None and cached[0] == len(self.indices):
+            return cached[1]
+        uv = self.uvs.astype(np.float64)
+        t = uv[self.indices]  # (m, 3, 2)
+        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        signed = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        inside = bool(((t >= 0.0) & (t <= 1.0)).all())
+        one_way = bool((signed > 0.0).all() or (signed < 0.0).all())
+        fills = inside and one_way and abs(abs(float(signed.sum())) - 1.0) <= 1e-9
+        if fills:
+            order, same = self._sorted_edges()
+            alone = ~(np.concatenate([[False], same]) | np.concatenate([same, [False]]))
+            tri = self.indices.astype(np.int64)
+            starts = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])[order][alone]
+            ends = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])[order][alone]
+            a, b = uv[starts], uv[ends]
+            on_side = ((a == b) & ((a == 0.0) | (a == 1.0))).any(axis=1)  # u or v fixed at 0 or 1
+            fills = bool(on_side.all())
+        self._fills_cache = (len(self.indices), fills)
+        return fills
+
     def _sorted_edges(self) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
         """The triangles' edges sorted by their two vertices (stably; edge e of triangle t is
         number e m + t: edges 0-1 of every triangle, then 1-2, then 2-0), and for each sorted
@@ -331,6 +360,7 @@ class Mesh:
         self.shared_normal()
         self.triangle_derivatives()
         self.chart_border()
+        self.charts_fill_map()
         self.triangle_charts()
         self.encloses_volume()
         self.facet_sag()
