@@ -21,6 +21,7 @@ from dentdemo.carve.undo import (
     chart_boxes,
     job_rects,
     merged_rects,
+    packed,
     size_class,
 )
 
@@ -199,19 +200,27 @@ def _own_log(carver, depth: int, budget: int) -> UndoLog:
 
 
 def _entry_bytes(entry) -> int:
-    """Texture bytes of an entry's snapshots worked out from their textures: w h (4 + 4), each
-    texture holding its rectangle and at most 1.5 times its sides past 16 texels."""
-    total = 0
+    """Texture bytes of an entry worked out from its pair of textures (w h (4 + 4)), after
+    checking the pair: every snapshot's rectangle lies inside it at its own place, none
+    overlaps another, and each side is at most 1.5 times (past 16 texels) the extent the
+    rectangles reach."""
+    height, normal = entry.textures.height, entry.textures.normal
+    w, h = height.size
+    taken = np.zeros((h, w), dtype=np.int64)
     for snap in entry:
-        height, normal = snap.textures.height, snap.textures.normal
-        w, h = height.size
-        rw, rh = snap.rect[2:]
-        assert rw <= w <= max(16, 1.5 * rw) and rh <= h <= max(16, 1.5 * rh)
-        assert height.dtype == "f4" and height.components == 1
-        assert normal.size == (w, h) and normal.dtype == "f1"
-        assert normal.components == 4
-        total += w * h * 4 + w * h * 4
-    return total
+        (x, y), (rw, rh) = snap.at, snap.rect[2:]
+        assert 0 <= x and x + rw <= w and 0 <= y and y + rh <= h
+        taken[y : y + rh, x : x + rw] += 1
+    assert taken.max() == 1  # disjoint
+    reach_x, reach_y = (
+        np.nonzero(taken.any(axis=0))[0][-1] + 1,
+        np.nonzero(taken.any(axis=1))[0][-1] + 1,
+    )
+    assert w <= max(16, 1.5 * reach_x) and h <= max(16, 1.5 * reach_y)
+    assert height.dtype == "f4" and height.components == 1
+    assert normal.size == (w, h) and normal.dtype == "f1"
+    assert normal.components == 4
+    return w * h * 4 + w * h * 4
 
 
 def test_size_classes_by_hand():
@@ -233,28 +242,56 @@ def _made_during(monkeypatch, kind: str, call) -> list:
 
 def test_dropped_snapshots_textures_serve_the_next_entries(gl, scene, monkeypatch):
     """A log one entry deep: each press drops the last entry, and the same press again makes
-    its snapshots in the textures of the one dropped, making no texture; the cleared log keeps
-    them idle (their bytes), and release deletes those too."""
+    its snapshots in the pair of textures of the one dropped, making no texture; the cleared
+    log keeps that pair idle (its bytes), and release deletes it too."""
     plate, ball, carver = scene
     log = _own_log(carver, 1, UNDO_BYTES)
     try:
         _press(carver, plate, ball, 0)
-        first = {id(snap.textures) for snap in log.entries[-1]}
+        first = log.entries[-1].textures
         made = _made_during(monkeypatch, "texture", lambda: _press(carver, plate, ball, 0))
-        entry = list(log.entries[-1])
-        assert {id(snap.textures) for snap in entry} == first and not made
+        entry = log.entries[-1]
+        assert entry.textures is first and not made
         assert len(log) == 1 and log.idle_bytes == 0 and log.bytes == _entry_bytes(entry)
         log.clear()
         assert log.bytes == 0 and log.idle_bytes == _entry_bytes(entry)
-        pairs = [snap.textures for snap in entry]
     finally:
         log.release()
     assert log.idle_bytes == 0 and not log._idle
     assert all(
         isinstance(texture.mglo, moderngl.mgl.InvalidObject)
-        for pair in pairs
-        for texture in (pair.height, pair.normal)
+        for texture in (first.height, first.normal)
     )  # deleted
+
+
+def test_a_batchs_snapshots_share_one_pair_of_textures(gl, scene, monkeypatch):
+    """A press dents both bodies: the snapshots of both maps go into one pair of textures, made
+    once (two textures, where a pair a rectangle made four), and undo puts both back bit for
+    bit."""
+    plate, ball, carver = scene
+    log = _own_log(carver, UNDO_DEPTH, UNDO_BYTES)
+    try:
+        before = _maps(gl, plate, ball)
+        made = _made_during(monkeypatch, "texture", lambda: _press(carver, plate, ball, 1))
+        (entry,) = log.entries
+        assert {id(snap.maps) for snap in entry} == {id(plate._live("")), id(ball._live(""))}
+        assert len(made) == 2  # one height and one normal texture for the whole batch
+        _entry_bytes(entry)
+        assert _maps(gl, plate, ball) != before
+        assert carver.undo()
+        assert _maps(gl, plate, ball) == before, _differences(_maps(gl, plate, ball), before)
+    finally:
+        log.release()
+
+
+def test_packing_by_hand():
+    """Shelves of the tallest first, about as wide as the square of the area: two 10 x 10 and
+    a 5 x 20 (area 300, width 18) put the 5 x 20 at the origin, one 10 x 10 beside it and the
+    other on a shelf above (20 high); no rectangles, nothing."""
+    at, extent = packed([(10, 10), (10, 10), (5, 20)])
+    assert at == [(5, 0), (0, 20), (0, 0)] and extent == (15, 30)
+    assert packed([]) == ([], (0, 0))
+    assert packed([(7, 3)]) == ([(0, 0)], (7, 3))
 
 
 def test_a_snapshot_makes_no_framebuffer_and_undoes_bit_for_bit(gl, scene, monkeypatch):

@@ -20,12 +20,14 @@ all jobs on one map are merged into a few rectangles (split where `GAP` texels o
 columns hold no box, so that a dent across two far charts of an atlas keeps two small
 rectangles).
 
-Where the snapshots live: each rectangle is copied to the lower-left corner of a pair of textures
-(height, normals) whose sides are the rectangle's rounded up to a size class (`size_class`: 16,
-24, 32, 48, 64, 96, ... texels), so that the pairs of dropped entries serve the next ones
-instead of being deleted and made again (on llvmpipe that costs 35 us a rectangle, a tenth of
-a sandbox hit's carve). The log counts the pairs' texture bytes against its budget; pairs kept
-idle for reuse are at most `IDLE_BYTES`.
+Where the snapshots live: an entry's rectangles are packed side by side (`packed`: shelves,
+tallest first) into one pair of textures (height, normals) whose sides are the packing's rounded
+up to a size class (`size_class`: 16, 24, 32, 48, 64, 96, ... texels), so that the pairs of
+dropped entries serve the next ones instead of being deleted and made again. On llvmpipe a
+pair costs about 30 us to make: one pair a batch, not one a rectangle (a sandbox frame's batch
+has about six), and the copies into it follow each other (every height, then every normal).
+The log counts the pairs' texture bytes against its budget; pairs kept idle for reuse are at
+most `IDLE_BYTES`.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from __future__ import annotations
 import ctypes
 import math
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -208,17 +210,52 @@ class SnapshotTextures:
 
 @dataclass
 class Snapshot:
-    """One rectangle of a map's height and normals as they were before an entry's hits, in the
-    lower-left corner of `textures`."""
+    """One rectangle of a map's height and normals as they were before an entry's hits, at
+    `at` (its lower-left texel) in the entry's pair of textures."""
 
     maps: SurfaceMaps
     rect: Rect
+    at: tuple[int, int]
+
+
+@dataclass
+class Entry:
+    """One batch's snapshots, packed side by side in one pair of textures (iterating an entry
+    gives its snapshots)."""
+
+    snapshots: list[Snapshot]
     textures: SnapshotTextures
+
+    def __iter__(self) -> Iterator[Snapshot]:
+        return iter(self.snapshots)
+
+    def __len__(self) -> int:
+        return len(self.snapshots)
 
     @property
     def bytes(self) -> int:
-        """The texture bytes the snapshot holds (its size class, not only its rectangle)."""
+        """The texture bytes the entry holds (its pair's size class, not only its rectangles)."""
         return self.textures.bytes
+
+
+def packed(sides: Sequence[tuple[int, int]]) -> tuple[list[tuple[int, int]], tuple[int, int]]:
+    """Rectangles of `sides` (width, height, texels) placed side by side without overlap: each
+    one's lower-left texel, and the width and height that hold them all. Shelves left to
+    right, bottom to top, the tallest first, about as wide as the square of their area."""
+    if not sides:
+        return [], (0, 0)
+    area = sum(w * h for w, h in sides)
+    width = max(max(w for w, _ in sides), math.isqrt(area - 1) + 1)
+    at: list[tuple[int, int]] = [(0, 0)] * len(sides)
+    x = y = shelf = used = 0
+    for k in sorted(range(len(sides)), key=lambda k: -sides[k][1]):  # stable: ties in order
+        w, h = sides[k]
+        if x + w > width:
+            x, y, shelf = 0, y + shelf, 0
+        at[k] = (x, y)
+        x, shelf = x + w, max(shelf, h)
+        used = max(used, x)
+    return at, (used, y + shelf)
 
 
 class UndoLog:
@@ -232,10 +269,10 @@ class UndoLog:
         self.depth = depth
         self.budget = budget
         #: Oldest first; each entry is the snapshots of one batch.
-        self.entries: deque[list[Snapshot]] = deque()
-        #: Texture bytes of the entries' snapshots.
+        self.entries: deque[Entry] = deque()
+        #: Texture bytes of the entries' pairs.
         self.bytes = 0
-        #: Texture pairs of dropped snapshots by size, for reuse; `idle_bytes` in all.
+        #: Texture pairs of dropped entries by size, for reuse; `idle_bytes` in all.
         self._idle: dict[tuple[int, int], list[SnapshotTextures]] = {}
         self.idle_bytes = 0
         #: The framebuffers a copy attaches snapshot textures to (read, draw; made when first
@@ -252,10 +289,11 @@ class UndoLog:
         if not jobs or self.depth <= 0:
             return
         rects = [(maps, rect) for maps, found in job_rects(jobs) for rect in found]
-        needed = (
-            sum(size_class(w) * size_class(h) for _, (_, _, w, h) in rects)
-            * SNAPSHOT_BYTES_PER_TEXEL
-        )
+        if not rects:
+            return
+        at, (width, height) = packed([(w, h) for _, (_, _, w, h) in rects])
+        size = (size_class(width), size_class(height))
+        needed = size[0] * size[1] * SNAPSHOT_BYTES_PER_TEXEL
         if needed > self.budget:
             self.clear()
             return
@@ -263,16 +301,18 @@ class UndoLog:
             len(self.entries) >= self.depth or self.bytes + needed > self.budget
         ):
             self._drop(self.entries.popleft())
-        entry = [self._allocate(maps, rect) for maps, rect in rects]
-        if not entry:
-            return
+        entry = Entry(
+            [Snapshot(maps, rect, xy) for (maps, rect), xy in zip(rects, at, strict=True)],
+            self._pair(size),
+        )
+        # Every height, then every normal: the copies into one texture one after the other.
+        pair = entry.textures
         copies: list[Copy] = []
-        for snap in entry:
-            x, y, w, h = snap.rect
-            copies += [
-                (snap.maps.height_fbo, (x, y), snap.textures.height, (0, 0), w, h),
-                (snap.maps.normal_fbo, (x, y), snap.textures.normal, (0, 0), w, h),
-            ]
+        for kind in ("height", "normal"):
+            for snap in entry:
+                x, y, w, h = snap.rect
+                fbo = snap.maps.height_fbo if kind == "height" else snap.maps.normal_fbo
+                copies.append((fbo, (x, y), getattr(pair, kind), snap.at, w, h))
         self._blit(copies)
         self.entries.append(entry)
         self.bytes += needed
@@ -283,12 +323,13 @@ class UndoLog:
         if not self.entries:
             return False
         entry = self.entries.pop()
+        pair = entry.textures
         copies: list[Copy] = []
         for snap in entry:  # the rectangles of one entry and map are disjoint: any order
             x, y, w, h = snap.rect
             copies += [
-                (snap.textures.height, (0, 0), snap.maps.height_fbo, (x, y), w, h),
-                (snap.textures.normal, (0, 0), snap.maps.normal_fbo, (x, y), w, h),
+                (pair.height, snap.at, snap.maps.height_fbo, (x, y), w, h),
+                (pair.normal, snap.at, snap.maps.normal_fbo, (x, y), w, h),
             ]
         with preserved(self.gl.ctx):
             self._blit(copies)
@@ -299,12 +340,13 @@ class UndoLog:
     def forget(self, maps: SurfaceMaps) -> None:
         """Drop every snapshot of `maps` (its maps were replaced: repair, new heights, release);
         entries left empty go. Undo then restores the other bodies of those entries only."""
-        kept: deque[list[Snapshot]] = deque()
+        kept: deque[Entry] = deque()
         for entry in self.entries:
-            self._drop([snap for snap in entry if snap.maps is maps])
-            rest = [snap for snap in entry if snap.maps is not maps]
-            if rest:
-                kept.append(rest)
+            entry.snapshots = [snap for snap in entry if snap.maps is not maps]
+            if entry.snapshots:
+                kept.append(entry)
+            else:
+                self._drop(entry)
         self.entries = kept
 
     def clear(self) -> None:
@@ -324,32 +366,30 @@ class UndoLog:
         self.idle_bytes = 0
 
     # -- internals -----------------------------------------------------------------------------
-    def _drop(self, entry: list[Snapshot]) -> None:
-        """The entry's snapshots forgotten, their textures kept idle for reuse while the idle
-        ones hold at most IDLE_BYTES, else deleted."""
-        for snap in entry:
-            self.bytes -= snap.bytes
-            pair = snap.textures
-            if self.idle_bytes + pair.bytes <= IDLE_BYTES:
-                self._idle.setdefault(pair.size, []).append(pair)
-                self.idle_bytes += pair.bytes
-            else:
-                pair.release()
+    def _drop(self, entry: Entry) -> None:
+        """The entry forgotten, its pair kept idle for reuse while the idle ones hold at most
+        IDLE_BYTES, else deleted."""
+        self.bytes -= entry.bytes
+        pair = entry.textures
+        if self.idle_bytes + pair.bytes <= IDLE_BYTES:
+            self._idle.setdefault(pair.size, []).append(pair)
+            self.idle_bytes += pair.bytes
+        else:
+            pair.release()
 
-    def _allocate(self, maps: SurfaceMaps, rect: Rect) -> Snapshot:
-        """A snapshot of `rect` in an idle pair of its size class, or in a new one."""
-        size = (size_class(rect[2]), size_class(rect[3]))
+    def _pair(self, size: tuple[int, int]) -> SnapshotTextures:
+        """An idle pair of textures of `size` (texels), or a new one."""
         idle = self._idle.get(size)
         if idle:
             pair = idle.pop()
             self.idle_bytes -= pair.bytes
-            return Snapshot(maps, rect, pair)
+            return pair
         ctx = self.gl.ctx
         height = ctx.texture(size, 1, dtype="f4")
         normal = ctx.texture(size, 4, dtype="f1")
         for texture in (height, normal):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        return Snapshot(maps, rect, SnapshotTextures(size, height, normal))
+        return SnapshotTextures(size, height, normal)
 
     def _blit(self, copies: list[Copy]) -> None:
         """glBlitFramebuffer, NEAREST, of each copy's rectangle (same format on both sides:
