@@ -307,12 +307,14 @@ class UndoLog:
         )
         # Every height, then every normal: the copies into one texture one after the other.
         pair = entry.textures
-        copies: list[Copy] = []
-        for kind in ("height", "normal"):
-            for snap in entry:
-                x, y, w, h = snap.rect
-                fbo = snap.maps.height_fbo if kind == "height" else snap.maps.normal_fbo
-                copies.append((fbo, (x, y), getattr(pair, kind), snap.at, w, h))
+        copies: list[Copy] = [
+            (snap.maps.height_fbo, snap.rect[:2], pair.height, snap.at, *snap.rect[2:])
+            for snap in entry
+        ]
+        copies += [
+            (snap.maps.normal_fbo, snap.rect[:2], pair.normal, snap.at, *snap.rect[2:])
+            for snap in entry
+        ]
         self._blit(copies)
         self.entries.append(entry)
         self.bytes += needed

@@ -247,13 +247,18 @@ class Mesh:
         cached = getattr(self, "_border_cache", None)
         if cached is not None and len(cached) == len(self.indices):
             return cached
-        order, same = self._sorted_edges()
-        alone = ~(np.concatenate([[False], same]) | np.concatenate([same, [False]]))
-        single = np.empty(len(order), dtype=bool)
-        single[order] = alone
-        cached = np.asarray(single.reshape(3, -1).any(axis=0))  # any of its three edges
+        cached = np.asarray(self._lone_edges().reshape(3, -1).any(axis=0))  # any of its three
         self._border_cache = cached
         return cached
+
+    def _lone_edges(self) -> NDArray[np.bool_]:
+        """(3 m,) whether each edge (e m + t: edge e of triangle t, as `_sorted_edges` numbers
+        them) is one no other triangle shares: on a chart's border."""
+        order, same = self._sorted_edges()
+        alone = ~(np.concatenate([[False], same]) | np.concatenate([same, [False]]))
+        lone = np.empty(len(order), dtype=bool)
+        lone[order] = alone
+        return lone
 
     def charts_fill_map(self) -> bool:
         """Whether the UV triangles tile the whole unit square (a plate's one chart): each lies
@@ -273,12 +278,9 @@ class Mesh:
         one_way = bool((signed > 0.0).all() or (signed < 0.0).all())
         fills = inside and one_way and abs(abs(float(signed.sum())) - 1.0) <= 1e-9
         if fills:
-            order, same = self._sorted_edges()
-            alone = ~(np.concatenate([[False], same]) | np.concatenate([same, [False]]))
-            tri = self.indices.astype(np.int64)
-            starts = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])[order][alone]
-            ends = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])[order][alone]
-            a, b = uv[starts], uv[ends]
+            lone = self._lone_edges()
+            a = uv[self.indices.T.ravel()[lone]]  # edge e of triangle t runs from its corner e
+            b = uv[self.indices[:, [1, 2, 0]].T.ravel()[lone]]  # to its corner e + 1
             on_side = ((a == b) & ((a == 0.0) | (a == 1.0))).any(axis=1)  # u or v fixed at 0 or 1
             fills = bool(on_side.all())
         self._fills_cache = (len(self.indices), fills)
