@@ -410,3 +410,49 @@ def test_the_address_map_view_draws_pass_2_for_convex_targets_too(gl):
     seen = (u > 0.0) & (u < 1.0) & (v > 0.0) & (v < 1.0) & (depth > 0.0)
     assert seen.any()  # the target's surface in the slab (pass 2 clears its tiles to -1)
     app.close()
+
+
+def test_bodies_of_one_shape_share_one_mesh_until_the_last_goes(gl):
+    """Balls of one radius draw with one mesh and one set of buffers, and one set of coarser
+    render meshes (a ball's first carve then finds the vertex arrays and index streams the balls
+    before it made); another radius has its own. The buffers outlive every body but the last
+    that holds them, which deletes them."""
+    import moderngl
+
+    from dentdemo.app.scenery import Scenery
+    from dentdemo.app.simulation import Simulation
+
+    lib = load_materials()
+    sim = Simulation(gl, load_scene(BALL_DROP, lib), lib)
+    scenery = Scenery(gl)
+    try:
+        a, b = (
+            sim.drop_ball((x, 0.1, 0.0), velocity=(0.0, -3.0, 0.0), radius=0.02)
+            for x in (-0.1, 0.1)
+        )
+        c = sim.drop_ball((0.0, 0.1, 0.1), velocity=(0.0, -3.0, 0.0), radius=0.03)
+        first, second, other = (sim.bodies[k] for k in (a, b, c))
+        assert second.gpu_mesh is first.gpu_mesh and second.mesh is first.mesh
+        assert other.gpu_mesh is not first.gpu_mesh and other.mesh is not first.mesh
+        assert first.maps is not second.maps  # each its own dents
+        parts = scenery.sync(sim)
+        assert parts[a] is parts[b] and parts[c] is not parts[a] and parts[a].coarser
+        buffers = [first.gpu_mesh.vbo, first.gpu_mesh.ibo, parts[a].coarser[0].mesh.vbo]
+        others = [other.gpu_mesh.vbo, parts[c].coarser[0].mesh.vbo]
+
+        def deleted(buffer: moderngl.Buffer) -> bool:
+            return isinstance(buffer.mglo, moderngl.mgl.InvalidObject)
+
+        sim.remove_body(a)
+        scenery.sync(sim)
+        assert not any(map(deleted, buffers))
+        for _ in range(40):  # the ball left lands and is carved with the shared buffers
+            sim.step()
+        assert sim.dents.get(b) is not None and sim.dents[b].count > 0
+        sim.remove_body(b)
+        scenery.sync(sim)
+        assert all(map(deleted, buffers)) and not any(map(deleted, others))
+    finally:
+        scenery.release()
+        sim.close()
+    assert all(map(deleted, others))

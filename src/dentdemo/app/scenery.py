@@ -12,6 +12,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.app.shared import Shared
 from dentdemo.app.simulation import SimBody, Simulation
 from dentdemo.carve.surface import GpuMesh
 from dentdemo.gl.context import GLContext
@@ -42,29 +43,30 @@ class DrawnParts:
 
 
 class Scenery:
-    """The drawn parts of a Simulation's bodies, by body id."""
+    """The drawn parts of a Simulation's bodies, by body id; bodies of one shape share theirs
+    (a plate's sides, the coarser meshes of balls of one radius: made once)."""
 
     def __init__(self, gl: GLContext) -> None:
         self.gl = gl
         self.parts: dict[str, DrawnParts] = {}
+        self._shared: Shared[Shape, DrawnParts] = Shared(self._make, DrawnParts.release)
 
     def sync(self, sim: Simulation) -> dict[str, DrawnParts]:
         """Parts for every body of `sim` now (made where missing or made for another shape),
         none for bodies that are gone."""
         for body_id in [i for i in self.parts if i not in sim.bodies]:
-            self.parts.pop(body_id).release()
+            self._shared.give_back(self.parts.pop(body_id).shape)
         for body_id, body in sim.bodies.items():
             parts = self.parts.get(body_id)
             if parts is None or parts.shape != body.spec.shape:
                 if parts is not None:
-                    parts.release()
-                self.parts[body_id] = self._make(body)
+                    self._shared.give_back(parts.shape)
+                self.parts[body_id] = self._shared.take(body.spec.shape, body)
         return self.parts
 
-    def _make(self, body: SimBody) -> DrawnParts:
-        shape = body.spec.shape
+    def _make(self, shape: Shape, body: SimBody) -> DrawnParts:
         under = GpuMesh(self.gl, plate_sides(shape)) if isinstance(shape, Plate) else None
-        image = body.mesh.base_colour_image
+        image = body.mesh.base_colour_image  # the shape's mesh: every body of it has this one
         texture = _upload_image(self.gl, image) if image is not None else None
         coarser = tuple(
             MeshLevel(GpuMesh(self.gl, level.mesh), level.error) for level in coarser_levels(shape)
@@ -72,8 +74,7 @@ class Scenery:
         return DrawnParts(shape, under, texture, coarser)
 
     def release(self) -> None:
-        for parts in self.parts.values():
-            parts.release()
+        self._shared.release()
         self.parts.clear()
 
 

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from dentdemo import outputs
 from dentdemo.app.reshape import DentProxy, proxy_for, shape_field
+from dentdemo.app.shared import Shared
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
@@ -25,7 +26,7 @@ from dentdemo.mesh.shapes import plate_sides, shape_mesh
 from dentdemo.model.impulse import dent_depth
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
-from dentdemo.model.shapes import Plane, Plate, Sphere
+from dentdemo.model.shapes import Plane, Plate, Shape, Sphere
 from dentdemo.physics.simulate import build_world
 from dentdemo.physics.world import Impact, PhysicsWorld, pose_matrix
 
@@ -128,6 +129,10 @@ class Simulation:
         self.dents: dict[str, DentStats] = {}
         #: Per dynamic body that took a dent: its surface as pressed (its collision shape).
         self.proxies: dict[str, DentProxy] = {}
+        #: Per shape, the mesh (its query structures built, not at a body's first hit) and its
+        #: GPU buffers that every body of that shape draws with: a body's first carve finds
+        #: the vertex arrays and index streams the bodies before it made.
+        self._meshes: Shared[Shape, tuple[Mesh, GpuMesh]] = Shared(self._make_mesh, _release_mesh)
         #: Per carved batch, newest last, as deep as the undo log: the proxies it pressed as
         #: they were before it ((inward, shaped, rebuilt_at), or None: the batch made it).
         self._proxy_history: deque[dict[str, tuple | None]] = deque(maxlen=UNDO_DEPTH)
@@ -138,9 +143,7 @@ class Simulation:
 
     # -- bodies --------------------------------------------------------------------------------
     def _add_render_body(self, spec: BodySpec) -> SimBody:
-        mesh = shape_mesh(spec.shape)
-        mesh.prepare_queries()  # not at the body's first hit (a carve's frame)
-        gpu = GpuMesh(self.gl, mesh)
+        mesh, gpu = self._meshes.take(spec.shape)
         size = map_side(spec, mesh)
         start = None
         if spec.dentable and spec.bump_map:
@@ -149,6 +152,16 @@ class Simulation:
         body = SimBody(spec, mesh, gpu, maps)
         self.bodies[spec.id] = body
         return body
+
+    def _make_mesh(self, shape: Shape) -> tuple[Mesh, GpuMesh]:
+        mesh = shape_mesh(shape)
+        mesh.prepare_queries()  # not at the body's first hit (a carve's frame)
+        return mesh, GpuMesh(self.gl, mesh)
+
+    def _release_body(self, body: SimBody) -> None:
+        """The body's maps deleted, and its mesh's buffers once no other body draws them."""
+        body.maps.release()
+        self._meshes.give_back(body.spec.shape)
 
     def drop_ball(
         self,
@@ -381,7 +394,7 @@ class Simulation:
         self.proxies.pop(body_id, None)
         body = self.bodies.pop(body_id)
         self.undo_log.forget(body.maps)
-        _release_body(body)
+        self._release_body(body)
 
     # -- undo and repair -----------------------------------------------------------------------
     def undo(self) -> bool:
@@ -482,11 +495,12 @@ class Simulation:
 
     def _release_bodies(self) -> None:
         for body in self.bodies.values():
-            _release_body(body)
+            self._release_body(body)
 
     def close(self) -> None:
         self.undo_log.release()
         self._release_bodies()
+        self._meshes.release()  # none is left held: the bodies gave theirs back
         self.carver.release()
         self.world.close()
 
@@ -497,6 +511,5 @@ def _triple(vector: ArrayLike) -> tuple[float, float, float]:
     return float(x), float(y), float(z)
 
 
-def _release_body(body: SimBody) -> None:
-    body.gpu_mesh.release()
-    body.maps.release()
+def _release_mesh(held: tuple[Mesh, GpuMesh]) -> None:
+    held[1].release()
