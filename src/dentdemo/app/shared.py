@@ -19,9 +19,6 @@ class Shared(Generic[K, V]):
         self._make, self._release = make, release
         self._held: dict[K, list] = {}  # key -> [value, holders]
 
-    def __len__(self) -> int:
-        return len(self._held)
-
     def take(self, key: K, *args: Any) -> V:
         """The value for `key`, made by `make(key, *args)` if no one holds it."""
         held = self._held.get(key)

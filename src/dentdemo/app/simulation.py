@@ -500,7 +500,6 @@ class Simulation:
     def close(self) -> None:
         self.undo_log.release()
         self._release_bodies()
-        self._meshes.release()  # none is left held: the bodies gave theirs back
         self.carver.release()
         self.world.close()
 
