@@ -536,3 +536,46 @@ def test_a_new_or_repaired_body_is_flat_without_a_pass_over_its_map(gl, size):
         finally:
             maps.release()
             gpu.release()
+
+
+def test_a_coarse_tool_widens_the_view_but_not_the_texels_drawn(gl, carver, bodies):
+    # A ball dented by a slab whose map is 16 x 16 (a body that takes no dents, as the ground,
+    # has such a map): the camera's pixels grow to the slab's texels, about 0.1 m, and its view
+    # by a pixel each side, but the dent is a disc of radius a = sqrt(2 R d - d^2) around the
+    # contact. The triangles passes 4 and 5 draw must lie near that disc (within a few of the
+    # ball's texels, plus their own size), not all over the cap the slab's depth range cuts,
+    # and the dent must still be the cut cap: along the surface normal at angle theta from the
+    # press axis, h = min(0, -(d - R (1 - cos theta)) / cos theta).
+    radius, depth, size = 0.1, 0.0005, 256
+    ball = bodies.make(press_mesh(Sphere(radius), 1), size)
+    top = np.array([0.0, radius, 0.0])
+    slab, _ = slab_on(bodies, top, (0.0, 1.0, 0.0), map_size=16)
+    jobs = carver.carve(ball, slab, ContactFrame(top, np.array([0.0, -1.0, 0.0])), depth)
+    (job,) = [job for job in jobs if job.target is ball]
+    cam = job.camera
+    a = math.sqrt(2 * radius * depth - depth * depth)
+    assert min(cam.half_extent) > 5 * a  # the coarse case: the view spans the slab's pixels
+    texel = max(2 * radius * math.pi / 4 * 3 / size, 2 * radius * math.pi / 4 * 2 / size)
+    mesh = ball.gpu_mesh.mesh
+    corners = mesh.positions[mesh.indices[cam.target_texels]].astype(np.float64)  # (k, 3, 3)
+    centre = corners.mean(axis=1)
+    reach = np.linalg.norm(corners - centre[:, None], axis=2).max(axis=1)
+    off_axis = np.hypot(centre[:, 0], centre[:, 2]) - reach  # nearest a triangle can come
+    assert len(off_axis) > 0
+    assert off_axis.max() <= math.sqrt(2) * (a + 4 * texel)
+    # The dent: the +Y chart of the cube sphere.
+    h = heights(gl, ball)
+    normal, ax, bx = (np.asarray(x, float) for x in CUBE_FACES[2])
+    u0, v0, du, dv = _cell(2)
+    centres = (np.arange(size) + 0.5) / size
+    u, v = np.meshgrid(centres, centres)
+    sp, tp = 2 * (u - u0) / du - 1, 2 * (v - v0) / dv - 1
+    inside = (np.abs(sp) < 0.98) & (np.abs(tp) < 0.98)
+    d = normal + np.tan(sp[..., None] * math.pi / 4) * ax + np.tan(tp[..., None] * math.pi / 4) * bx
+    cos = (d / np.linalg.norm(d, axis=-1, keepdims=True))[..., 1]
+    expected = np.minimum(0.0, -(depth - radius * (1 - cos)) / cos)
+    region = inside & ((expected < 0) | (h < 0))
+    err = h[region] - expected[region]
+    assert (region & (expected < 0)).sum() > 100
+    assert np.sqrt(np.mean(err**2)) <= 0.02 * depth
+    assert np.abs(err).max() <= 0.05 * depth

@@ -52,7 +52,8 @@ class CollisionCamera:
     #: The target's largest texel side near the contact, metres (margins of pass 5).
     texel_metres: float
     #: Triangles each pass draws (indices into the meshes): the tool's in the view (pass 3), the
-    #: target's in the view and the slab grown by the ring (passes 2, 4 and 5).
+    #: target's near the footprint (`texel_rect`) and in the slab grown by the ring (passes 2, 4
+    #: and 5).
     tool_view: NDArray[np.int64]
     target_texels: NDArray[np.int64]
     #: Those of `target_texels` on a chart border (the gutter draws of passes 4 and 5); none
@@ -151,6 +152,8 @@ class CameraDraft:
     target_tris: Projected
     tool_tris: Projected
     view: Rect
+    #: The rectangle the target's triangle lists must meet (`texel_rect`).
+    texel_view: Rect
     texel_slab: tuple[float, float]
     tool_slab: tuple[float, float] | None
     #: Every field of the camera but `tool_view`, `target_texels` and `target_gutter`.
@@ -195,6 +198,7 @@ def camera_draft(
     texel_v = _length(dpdv) / height
     pitch_x = max(abs(_dot(dpdu, right)) / width, MIN_COS * texel_u)
     pitch_y = max(abs(_dot(dpdv, up)) / height, MIN_COS * texel_v)
+    fine_pitch = max(pitch_x, pitch_y)
     # The tool is known to its own texels only: where the target's texels are finer, a pixel spans
     # a whole number of them (pixel centres stay on texel centres) up to one of the tool's texels.
     pitch_x *= max(1, math.floor(tool.texel_metres / pitch_x))
@@ -262,6 +266,7 @@ def camera_draft(
         target_tris=target_tris,
         tool_tris=tool_tris,
         view=view,
+        texel_view=texel_rect(target, bound.rect, 2.0 * texel + fine_pitch, view),
         texel_slab=(gather[0] - ring, gather[1] + ring),
         tool_slab=(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf) if tool_list else None,
         fields={
@@ -278,6 +283,19 @@ def camera_draft(
     )
 
 
+def texel_rect(target: BodyPose, bound: Rect, margin: float, view: Rect) -> Rect:
+    """The rectangle (camera x, y, metres) whose triangles of `target` passes 4 and 5 draw:
+    the footprint `bound` grown by `margin` (two of the target's texels and its texel pitch in
+    the view), within `view`. The view's margin is one of its pixels, which span up to one of
+    the tool's texels (a non-dentable body's are coarse: the ground's are 0.25 m), but a texel
+    farther than `margin` from the footprint neither changes nor neighbours one that does.
+    A target that may hide part of itself keeps the whole view: pass 2 draws the same list, and
+    a pixel's nearest surface may lie up to half a pixel outside the footprint's."""
+    if target.mesh.bound is None:
+        return view
+    return bound.grown(margin).intersect(view) or view
+
+
 def collision_cameras(
     drafts: Sequence[CameraDraft | None], exact_lists: bool = True
 ) -> list[CollisionCamera | None]:
@@ -288,7 +306,7 @@ def collision_cameras(
     queries: list[Query] = []
     for draft in drafts:
         if draft is not None:
-            queries.append((draft.target_tris, draft.view, draft.texel_slab))
+            queries.append((draft.target_tris, draft.texel_view, draft.texel_slab))
             if draft.tool_slab is not None:
                 queries.append((draft.tool_tris, draft.view, draft.tool_slab))
     lists = iter(meeting_many(queries, exact_lists))
