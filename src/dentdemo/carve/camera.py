@@ -198,7 +198,6 @@ def camera_draft(
     texel_v = _length(dpdv) / height
     pitch_x = max(abs(_dot(dpdu, right)) / width, MIN_COS * texel_u)
     pitch_y = max(abs(_dot(dpdv, up)) / height, MIN_COS * texel_v)
-    fine_pitch = max(pitch_x, pitch_y)
     # The tool is known to its own texels only: where the target's texels are finer, a pixel spans
     # a whole number of them (pixel centres stay on texel centres) up to one of the tool's texels.
     pitch_x *= max(1, math.floor(tool.texel_metres / pitch_x))
@@ -266,7 +265,7 @@ def camera_draft(
         target_tris=target_tris,
         tool_tris=tool_tris,
         view=view,
-        texel_view=texel_rect(target, bound.rect, 2.0 * texel + fine_pitch, view),
+        texel_view=texel_rect(target, bound.rect, 2.0 * texel, view),
         texel_slab=(gather[0] - ring, gather[1] + ring),
         tool_slab=(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf) if tool_list else None,
         fields={
@@ -285,12 +284,13 @@ def camera_draft(
 
 def texel_rect(target: BodyPose, bound: Rect, margin: float, view: Rect) -> Rect:
     """The rectangle (camera x, y, metres) whose triangles of `target` passes 4 and 5 draw:
-    the footprint `bound` grown by `margin` (two of the target's texels and its texel pitch in
-    the view), within `view`. The view's margin is one of its pixels, which span up to one of
-    the tool's texels (a non-dentable body's are coarse: the ground's are 0.25 m), but a texel
-    farther than `margin` from the footprint neither changes nor neighbours one that does.
-    A target that may hide part of itself keeps the whole view: pass 2 draws the same list, and
-    a pixel's nearest surface may lie up to half a pixel outside the footprint's."""
+    the footprint `bound` grown by `margin` (two of the target's texels, twice the reach of
+    pass 5's differences), within `view`. The view's own margin is a pixel more, and its pixels
+    span up to one of the tool's texels (a body that takes no dents has coarse ones: the
+    ground's are 0.25 m), but a texel farther than `margin` from the footprint neither changes
+    nor neighbours one that does. A target that may hide part of itself keeps the whole view:
+    pass 2 draws the same list, and a pixel's nearest surface may lie up to half a pixel
+    outside the footprint's."""
     if target.mesh.bound is None:
         return view
     return bound.grown(margin).intersect(view) or view
