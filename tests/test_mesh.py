@@ -100,3 +100,74 @@ def test_unreadable_mesh_is_a_clear_error(tmp_path):
     path.write_text("this is not a mesh\n")
     with pytest.raises(DentdemoError, match="broken.obj"):
         load_mesh(path)
+
+
+def _directions(count: int, seed: int) -> np.ndarray:
+    """Unit directions: random ones, and ones on and beside the cube's edges and corners."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(count, 3))
+    edges = np.array([[1, 1, 0], [1, 0, -1], [0, -1, 1], [1, 1, 1], [-1, 1, -1], [-1, -1, -1]])
+    d = np.vstack([d, edges, edges + rng.normal(scale=1e-6, size=edges.shape)])
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("n", [1, 5, 12, 48])
+def test_a_spheres_frame_is_the_triangle_under_the_point(n):
+    # Oracle: the triangle that the ray from the centre along the point's direction crosses
+    # (its barycentric coordinates all >= 0, from solving the ray-plane system), and the uv of
+    # the point's projection on that triangle's plane (its barycentric coordinates from the
+    # corners). The nearest bounding-sphere centre, which the frame used to follow, is another
+    # triangle for most directions.
+    radius = 0.04
+    mesh = primitives.sphere(radius, n)
+    corners = mesh.positions.astype(np.float64)[mesh.indices]  # (m, 3, 3)
+    uvs = mesh.uvs.astype(np.float64)[mesh.indices]
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    for d in _directions(300, n):
+        point = radius * d
+        frame = mesh.frame_near(point)
+        # t d = a + b1 e1 + b2 e2 for every triangle at once, by Cramer's rule.
+        pe2 = np.cross(d, e2)
+        det = np.einsum("ij,ij->i", e1, pe2)
+        det = np.where(np.abs(det) < 1e-300, np.nan, det)  # parallel: never crossed
+        s_ = -corners[:, 0]
+        b1 = np.einsum("ij,ij->i", s_, pe2) / det
+        qe1 = np.cross(s_, e1)
+        b2 = (qe1 @ d) / det
+        t = np.einsum("ij,ij->i", e2, qe1) / det
+        hit = (t > 0) & (b1 >= -1e-6) & (b2 >= -1e-6) & (b1 + b2 <= 1 + 1e-6)
+        crossed = np.flatnonzero(hit)  # one, or the triangles beside an edge or corner crossed
+        dpdu, dpdv = mesh.triangle_derivatives(crossed)
+        chosen = [
+            k
+            for k, a, b in zip(crossed, dpdu, dpdv, strict=True)
+            if np.allclose(frame.dpdu, a, rtol=0, atol=1e-12)
+            and np.allclose(frame.dpdv, b, rtol=0, atol=1e-12)
+        ]
+        assert chosen, (d, crossed, frame)
+        k = chosen[0]
+        normal = np.cross(e1[k], e2[k])
+        normal /= np.linalg.norm(normal)
+        q = point - ((point - corners[k, 0]) @ normal) * normal - corners[k, 0]
+        g = np.array([[e1[k] @ e1[k], e1[k] @ e2[k]], [e1[k] @ e2[k], e2[k] @ e2[k]]])
+        c1, c2 = np.linalg.solve(g, [q @ e1[k], q @ e2[k]])
+        uv = uvs[k, 0] + c1 * (uvs[k, 1] - uvs[k, 0]) + c2 * (uvs[k, 2] - uvs[k, 0])
+        assert np.abs(frame.uv - uv).max() <= 1e-9
+
+
+def test_a_plates_frame_is_its_own_uv_everywhere():
+    # The plate convention (x = (u - 0.5) S, z = (0.5 - v) S): any point's uv and one frame,
+    # dP/du = (S, 0, 0) and dP/dv = (0, 0, -S), whatever triangle it lies over.
+    side = 0.7
+    mesh = primitives.plate(side, subdivisions=6)
+    rng = np.random.default_rng(3)
+    for x, y, z in rng.uniform([-0.4, -0.01, -0.4], [0.4, 0.01, 0.4], size=(50, 3)) * [
+        side / 0.8,
+        1.0,
+        side / 0.8,
+    ]:
+        frame = mesh.frame_near(np.array([x, y, z]))
+        assert np.allclose(frame.uv, [x / side + 0.5, 0.5 - z / side], rtol=0, atol=1e-6)
+        assert np.allclose(frame.dpdu, [side, 0, 0], rtol=0, atol=1e-6)
+        assert np.allclose(frame.dpdv, [0, 0, -side], rtol=0, atol=1e-6)
+        assert np.allclose(frame.normal, [0, 1, 0]) and abs(frame.distance - abs(y)) <= 1e-9

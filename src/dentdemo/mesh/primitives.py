@@ -12,28 +12,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.mesh.cube import CUBE_FACES, cube_atlas_indices, grid_indices
 from dentdemo.mesh.mesh import Bound, Mesh
 
 #: Gutter around every chart, in uv units (2 texels at 256^2, 32 at 4096^2).
 GUTTER = 1.0 / 128.0
-
-# Cube faces as (normal, a, b) with a x b = normal; a runs along +u, b along +v of the face chart.
-CUBE_FACES = (
-    ((1, 0, 0), (0, 0, -1), (0, 1, 0)),
-    ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
-    ((0, 1, 0), (1, 0, 0), (0, 0, -1)),
-    ((0, -1, 0), (1, 0, 0), (0, 0, 1)),
-    ((0, 0, 1), (1, 0, 0), (0, 1, 0)),
-    ((0, 0, -1), (-1, 0, 0), (0, 1, 0)),
-)
-
-
-def _grid_indices(rows: int, cols: int, offset: int) -> np.ndarray:
-    """Two triangles per cell of a (rows+1) x (cols+1) vertex grid laid out row by row."""
-    r, c = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
-    i0 = (offset + r * (cols + 1) + c).ravel()
-    i1, i2, i3 = i0 + 1, i0 + cols + 1, i0 + cols + 2
-    return np.concatenate([np.stack([i0, i1, i3], 1), np.stack([i0, i3, i2], 1)])
 
 
 def _cell(face: int) -> tuple[float, float, float, float]:
@@ -58,7 +41,7 @@ def plate(side: float, subdivisions: int = 8, thickness: float = 0.0) -> Mesh:
         pos,
         normals,
         uv.astype(np.float32),
-        _grid_indices(n, n, 0),
+        grid_indices(n, n, 0),
         bound=Bound(triangles=faces, depth=thickness),
     )
 
@@ -94,7 +77,6 @@ def _cube_atlas(name: str, n: int, place, curved: bool) -> Mesh:
     positions: list[NDArray[np.float64]] = []
     normals: list[NDArray[np.float64]] = []
     uvs: list[NDArray[np.float64]] = []
-    indices: list[NDArray[np.integer]] = []
     grid = np.linspace(-1.0, 1.0, n + 1)
     t, s = np.meshgrid(grid, grid, indexing="ij")
     s, t = s.ravel()[:, None], t.ravel()[:, None]
@@ -108,11 +90,11 @@ def _cube_atlas(name: str, n: int, place, curved: bool) -> Mesh:
         )
         u0, v0, du, dv = _cell(face)
         uv = np.hstack([u0 + (s + 1) / 2 * du, v0 + (t + 1) / 2 * dv])
-        indices.append(_grid_indices(n, n, sum(len(p) for p in positions)))
         positions.append(pos)
         normals.append(nr)
         uvs.append(uv)
-    return Mesh(name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), np.vstack(indices))
+    indices = cube_atlas_indices(n).astype(np.uint32)
+    return Mesh(name, np.vstack(positions), np.vstack(normals), np.vstack(uvs), indices)
 
 
 def _revolve(
@@ -143,7 +125,7 @@ def _revolve(
         nrm = np.stack([nr * np.cos(pp), nr * np.sin(pp), nz], -1).reshape(-1, 3)
         uu = GUTTER + phi / (2 * math.pi) * (1 - 2 * GUTTER)
         uv = np.stack(np.meshgrid(v, uu, indexing="ij")[::-1], -1).reshape(-1, 2)
-        indices.append(_grid_indices(len(r) - 1, around, sum(len(p) for p in positions)))
+        indices.append(grid_indices(len(r) - 1, around, sum(len(p) for p in positions)))
         positions.append(pos)
         normals.append(nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12))
         uvs.append(uv)
