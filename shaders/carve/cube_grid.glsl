@@ -13,10 +13,11 @@ uniform ivec2 u_map_size;      // surface-map texels (columns, rows)
 uniform int u_cube_grid;       // n: cells along each cube-face edge
 uniform float u_cube_radius;   // the sphere's radius, local metres
 
-// Grid point (c, r) of cube face `face` (`warp`: tan(s pi/4), tan(t pi/4) there) as corner `i`
-// of the triangle: its world point and normal, and its address (texels).
-void cube_vertex(int face, ivec2 cr, vec2 warp, int i, vec2 cell, vec2 span) {
-    vec3 unit = normalize(CUBE_FACE_N[face] + warp.x * CUBE_FACE_A[face] + warp.y * CUBE_FACE_B[face]);
+// Grid point (c, r) of the cube face whose normal and s and t axes are `axes` (`warp`:
+// tan(s pi/4), tan(t pi/4) there) as corner `i` of the triangle: its world point and normal, and
+// its address (texels).
+void cube_vertex(mat3 axes, ivec2 cr, vec2 warp, int i, vec2 cell, vec2 span) {
+    vec3 unit = normalize(axes[0] + warp.x * axes[1] + warp.y * axes[2]);
     t_world[i] = (u_model * vec4(u_cube_radius * unit, 1.0)).xyz;
     t_normal[i] = u_normal_matrix * unit;
     t_uv[i] = (cell + vec2(cr) / float(u_cube_grid) * span) * vec2(u_map_size);
@@ -40,9 +41,12 @@ bool rect_triangle() {
     vec2 lo = tan((vec2(cr) * step - 1.0) * 0.7853981633974483);
     vec2 hi = tan((vec2(cr + 1) * step - 1.0) * 0.7853981633974483);
     bool lower = f.x >= f.y;  // (c, r) (c+1, r) (c+1, r+1), else (c, r) (c+1, r+1) (c, r+1)
-    cube_vertex(face, cr, lo, 0, cell, span);
-    cube_vertex(face, cr + ivec2(1, lower ? 0 : 1), vec2(hi.x, lower ? lo.y : hi.y), 1, cell, span);
-    cube_vertex(face, cr + ivec2(lower ? 1 : 0, 1), vec2(lower ? hi.x : lo.x, hi.y), 2, cell, span);
+    // The face's axes looked up once (a table indexed per fragment costs the rasteriser a
+    // gather a vector).
+    mat3 axes = mat3(CUBE_FACE_N[face], CUBE_FACE_A[face], CUBE_FACE_B[face]);
+    cube_vertex(axes, cr, lo, 0, cell, span);
+    cube_vertex(axes, cr + ivec2(1, lower ? 0 : 1), vec2(hi.x, lower ? lo.y : hi.y), 1, cell, span);
+    cube_vertex(axes, cr + ivec2(lower ? 1 : 0, 1), vec2(lower ? hi.x : lo.x, hi.y), 2, cell, span);
     float thickness = 2.0 * u_cube_radius * length(u_model[0].xyz);  // through the centre
     t_thickness = float[3](thickness, thickness, thickness);
     return true;

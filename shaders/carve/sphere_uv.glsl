@@ -6,11 +6,14 @@
 vec2 sphere_uv(vec3 world) {
     vec3 q = u_swept_local * (world - u_swept_a);
     vec3 m = abs(q);
-    int face = m.x >= m.y && m.x >= m.z ? (q.x > 0.0 ? 0 : 1)
-             : m.y >= m.z ? (q.y > 0.0 ? 2 : 3) : (q.z > 0.0 ? 4 : 5);
-    vec3 n = CUBE_FACE_N[face], a = CUBE_FACE_A[face], b = CUBE_FACE_B[face];
-    float qn = dot(q, n);
-    vec2 st = vec2(atan(dot(q, a) / qn), atan(dot(q, b) / qn)) / 0.7853981633974483;
+    bool on_x = m.x >= m.y && m.x >= m.z, on_y = !on_x && m.y >= m.z;
+    int face = on_x ? (q.x > 0.0 ? 0 : 1) : on_y ? (q.y > 0.0 ? 2 : 3) : (q.z > 0.0 ? 4 : 5);
+    // q along the face's normal, s and t axes (CUBE_FACE_N, _A, _B of `face`), picked by selects
+    // rather than by indexing the tables with a per-fragment face: the same values, for less.
+    float qn = on_x ? m.x : on_y ? m.y : m.z;
+    float qa = on_x ? (q.x > 0.0 ? -q.z : q.z) : on_y ? q.x : (q.z > 0.0 ? q.x : -q.x);
+    float qb = on_y ? (q.y > 0.0 ? -q.z : q.z) : q.y;
+    vec2 st = vec2(atan(qa / qn), atan(qb / qn)) / 0.7853981633974483;
     vec2 cell = vec2(float(face % 3) / 3.0, float(face / 3) / 2.0) + ATLAS_GUTTER;
     vec2 span = vec2(1.0 / 3.0, 0.5) - 2.0 * ATLAS_GUTTER;
     return cell + (st + 1.0) * 0.5 * span;

@@ -24,6 +24,18 @@ void swept_snap(inout vec3 p, out vec3 n) {
 }
 
 // Where the line from `ro` along unit `rd` first enters the solid, or -1 when it misses.
+#if QUAD == 1
+// A sphere drawn as one quad: its cap alone, the same arithmetic as the general case's (whose
+// cylinder and second cap, the same sphere, the rasteriser would work out for every fragment).
+float swept_enter(vec3 ro, vec3 rd) {
+    vec3 oc = ro - u_swept_a;
+    float b = dot(rd, oc);
+    float h = b * b - (dot(oc, oc) - u_swept_radius * u_swept_radius);
+    if (h < 0.0) return -1.0;
+    float t = -b - sqrt(h);
+    return t >= 0.0 ? t : -1.0;
+}
+#else
 float swept_enter(vec3 ro, vec3 rd) {
     vec3 ba = u_swept_b - u_swept_a, oa = ro - u_swept_a;
     float baba = dot(ba, ba), bard = dot(ba, rd), baoa = dot(ba, oa);
@@ -52,6 +64,7 @@ float swept_enter(vec3 ro, vec3 rd) {
     }
     return best;
 }
+#endif
 
 // The view depth (metres along u_forward from u_eye) where the view line through world point p
 // enters (front) or leaves (back) the solid; keeps `depth` where the line misses. The line starts
