@@ -12,6 +12,7 @@ from dentdemo.carve.surface import GpuMesh, create_maps
 from dentdemo.mesh.loader import reatlas
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.normals import smooth_normals
+from dentdemo.mesh.primitives import CUBE_FACES, _cell
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.model.shapes import Box, Shape, Sphere
 
@@ -166,3 +167,37 @@ def texel_points(mesh: Mesh, size: int, model=None) -> np.ndarray:
         rows, cols = np.nonzero(inside)
         points[rows + lo[1], cols + lo[0]] = w @ pos[tri]
     return points
+
+
+def chart_coordinates(face: int, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """(s, t) of every texel centre of a map of `size` texels a side on cube-atlas chart `face`
+    (a box's or a cube-sphere's; -1 .. 1 across the chart, beyond it outside), rows as the map
+    stores them."""
+    u0, v0, du, dv = _cell(face)
+    centres = (np.arange(size) + 0.5) / size
+    u, v = np.meshgrid(centres, centres)
+    return 2 * (u - u0) / du - 1, 2 * (v - v0) / dv - 1
+
+
+def sphere_directions(face: int, s: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The unit direction (local) of a built-in sphere's point at (s, t) of chart `face`: the
+    equal-angle warp, N + tan(s pi/4) A + tan(t pi/4) B normalised."""
+    normal, a, b = (np.asarray(x, dtype=np.float64) for x in CUBE_FACES[face])
+    d = normal + np.tan(s[..., None] * math.pi / 4) * a + np.tan(t[..., None] * math.pi / 4) * b
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def cut_cap_errors(
+    h: np.ndarray, radius: float, depth: float, margin: float = 0.98
+) -> tuple[np.ndarray, np.ndarray]:
+    """A flat face pressed `depth` into a ball of `radius` straight down (-Y) cuts it by a
+    plane: along the surface normal at angle theta from the press axis, the oracle height is
+    h = min(0, -(d - R (1 - cos theta)) / cos theta). Over the +Y chart of the ball's height map
+    `h` (within `margin` of its edges), where either is dented: (the expected heights there, the
+    errors there)."""
+    s, t = chart_coordinates(2, h.shape[0])
+    inside = (np.abs(s) < margin) & (np.abs(t) < margin)
+    cos = sphere_directions(2, s, t)[..., 1]
+    expected = np.minimum(0.0, -(depth - radius * (1 - cos)) / cos)
+    region = inside & ((expected < 0) | (h < 0))
+    return expected[region], h[region] - expected[region]

@@ -20,13 +20,16 @@ from dentdemo.model.shapes import Box, Capsule, Plate, Sphere
 from surface_helpers import (
     DENTED,
     ball_on,
+    chart_coordinates,
     coarse_from_fine,
+    cut_cap_errors,
     heights,
     holes,
     noisy_sphere_without_uvs,
     press_mesh,
     rotation,
     slab_on,
+    sphere_directions,
     tilt,
     translation,
 )
@@ -126,10 +129,7 @@ def test_repeated_identical_presses_change_nothing(gl, carver, bodies, kind, til
 def _box_face_points(face: int, half: float, size: int):
     """World point of every texel centre of box chart `face` (NaN outside the chart)."""
     normal, a, b = (np.asarray(x, dtype=np.float64) for x in CUBE_FACES[face])
-    u0, v0, du, dv = _cell(face)
-    centres = (np.arange(size) + 0.5) / size
-    u, v = np.meshgrid(centres, centres)
-    s, t = 2 * (u - u0) / du - 1, 2 * (v - v0) / dv - 1
+    s, t = chart_coordinates(face, size)
     inside = (np.abs(s) < 1) & (np.abs(t) < 1)
     p = (normal + s[..., None] * a + t[..., None] * b) * half
     return np.where(inside[..., None], p, np.nan), inside, s, t
@@ -332,20 +332,11 @@ def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies, subd
     point = np.array([0.0, radius, 0.0])
     carver.carve(sphere, tool, ContactFrame(point, np.array([0.0, -1.0, 0.0])), depth)
     normal = _decode(gl.read(sphere.maps.normal))
-    face_n, a, b = (np.asarray(x, float) for x in CUBE_FACES[2])
-    u0, v0, du, dv = _cell(2)
-    c = (np.arange(size) + 0.5) / size
-    u, v = np.meshgrid(c, c)
-    s, t = 2 * (u - u0) / du - 1, 2 * (v - v0) / dv - 1
+    s, t = chart_coordinates(2, size)  # the +Y chart
     inside = (np.abs(s) < 0.95) & (np.abs(t) < 0.95)
-
-    def position(s, t):
-        d = face_n + np.tan(s[..., None] * math.pi / 4) * a + np.tan(t[..., None] * math.pi / 4) * b
-        return d / np.linalg.norm(d, axis=-1, keepdims=True)
-
-    n = position(s, t)
+    n = sphere_directions(2, s, t)
     eps = 1e-5
-    dpdu = position(s + eps, t) - position(s - eps, t)  # along +u
+    dpdu = sphere_directions(2, s + eps, t) - sphere_directions(2, s - eps, t)  # along +u
     tangent = dpdu - (dpdu * n).sum(-1, keepdims=True) * n
     tangent /= np.linalg.norm(tangent, axis=-1, keepdims=True)
     bitangent = np.cross(n, tangent)
@@ -564,19 +555,8 @@ def test_a_coarse_tool_widens_the_view_but_not_the_texels_drawn(gl, carver, bodi
     assert len(off_axis) > 0
     assert off_axis.max() <= math.sqrt(2) * (a + 4 * texel)
     # The dent: the +Y chart of the cube sphere.
-    h = heights(gl, ball)
-    normal, ax, bx = (np.asarray(x, float) for x in CUBE_FACES[2])
-    u0, v0, du, dv = _cell(2)
-    centres = (np.arange(size) + 0.5) / size
-    u, v = np.meshgrid(centres, centres)
-    sp, tp = 2 * (u - u0) / du - 1, 2 * (v - v0) / dv - 1
-    inside = (np.abs(sp) < 0.98) & (np.abs(tp) < 0.98)
-    d = normal + np.tan(sp[..., None] * math.pi / 4) * ax + np.tan(tp[..., None] * math.pi / 4) * bx
-    cos = (d / np.linalg.norm(d, axis=-1, keepdims=True))[..., 1]
-    expected = np.minimum(0.0, -(depth - radius * (1 - cos)) / cos)
-    region = inside & ((expected < 0) | (h < 0))
-    err = h[region] - expected[region]
-    assert (region & (expected < 0)).sum() > 100
+    expected, err = cut_cap_errors(heights(gl, ball), radius, depth)
+    assert (expected < 0).sum() > 100
     assert np.sqrt(np.mean(err**2)) <= 0.02 * depth
     assert np.abs(err).max() <= 0.05 * depth
 
