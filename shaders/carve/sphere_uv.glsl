@@ -1,8 +1,9 @@
 // The surface-map address of a point on a built-in sphere (mesh/primitives.py, sphere: a
 // cube-sphere with the equal-angle warp, one chart per cube face in a 3 x 2 atlas), worked out
 // from the point itself: passes drawn as one quad (QUAD 1) have no facet to interpolate it from.
-// CUBE_FACE_N, _A, _B (vec3[6]: each face's normal and its s and t axes) and ATLAS_GUTTER come
-// from primitives.py as defines.
+// ATLAS_GUTTER comes from primitives.py as a define. The faces' axes are mesh/cube.py's
+// CUBE_FACES (the CUBE_FACE_N, _A, _B defines), written out below as selects; the tests that
+// carve a sphere drawn as one quad against its facets hold the two together (to 1e-6 m).
 vec2 sphere_uv(vec3 world) {
     vec3 q = u_swept_local * (world - u_swept_a);
     vec3 m = abs(q);

@@ -81,9 +81,9 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
 
 
 def sphere_atlas_defines() -> dict[str, str]:
-    """The built-in sphere's atlas (mesh/primitives.py) as defines for sphere_uv.glsl and
-    cube_grid.glsl, and its gutter, which capsule_uv.glsl shares."""
-    from dentdemo.mesh.primitives import CUBE_FACES
+    """The built-in sphere's atlas (mesh/cube.py's faces, mesh/primitives.py's gutter) as
+    defines for sphere_uv.glsl and cube_grid.glsl; capsule_uv.glsl shares the gutter."""
+    from dentdemo.mesh.cube import CUBE_FACES
     from dentdemo.mesh.primitives import GUTTER as ATLAS_GUTTER
 
     def table(k: int) -> str:

@@ -450,7 +450,8 @@ class Mesh:
         if lookup == "flat":
             k = 0  # one plane and one affine uv map: every triangle gives the same frame
         elif lookup == "cube":
-            k = self._cube_triangle(p)
+            x, y, z = p.tolist()
+            k = cube_triangle((x, y, z), self.bound.grid)  # type: ignore[union-attr]
         else:
             group_centre, group_radius, members = self.clusters()
             d = group_centre - p
@@ -514,11 +515,6 @@ class Mesh:
                 way = "cube"
         self._frame_lookup_cache = (len(self.indices), way)
         return way
-
-    def _cube_triangle(self, point: NDArray[np.float64]) -> int:
-        """The triangle of a built-in sphere under `point`'s direction (local metres)."""
-        x, y, z = point.tolist()
-        return cube_triangle((x, y, z), self.bound.grid)  # type: ignore[union-attr]
 
     # -- clean-up ------------------------------------------------------------------------------
     def _drop_degenerate(self) -> None:
