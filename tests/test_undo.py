@@ -24,6 +24,8 @@ from dentdemo.carve.undo import (
     packed,
     size_class,
 )
+from dentdemo.mesh.shapes import shape_mesh
+from dentdemo.model.shapes import Plane
 
 SIDE = 0.4  # plate side, m
 R = 0.05  # ball radius, m
@@ -516,12 +518,47 @@ def test_chart_boxes_bound_each_charts_triangle_boxes():
     assert chart_boxes(BALL, np.zeros(0, np.int64), (64, 64)) == []
 
 
+def plate_uv_map(mesh) -> np.ndarray:
+    """The affine map (3 x 2) from a flat mesh's local (x, z, 1) to its uv, fitted by least
+    squares over its vertices (for meshes in the local y = 0 plane)."""
+    p = mesh.positions.astype(np.float64)
+    assert np.abs(p[:, 1]).max() == 0.0
+    design = np.column_stack([p[:, 0], p[:, 2], np.ones(len(p))])
+    fit, *_ = np.linalg.lstsq(design, mesh.uvs.astype(np.float64), rcond=None)
+    assert np.abs(design @ fit - mesh.uvs).max() < 1e-6  # one affine map
+    return fit
+
+
+def view_texel_box(job, fit, size) -> tuple[int, int, int, int]:
+    """The box (x0, y0, x1, y1, half-open) of a plate's texels whose centres lie in `job`'s view
+    rectangle seen along the press straight down (right and up horizontal): the rectangle's
+    corners dropped onto y = 0, through `fit`."""
+    cam = job.camera
+    assert np.allclose(cam.forward, DOWN)
+    hx, hy = cam.half_extent
+    uv = np.array(
+        [
+            [*(np.asarray(cam.eye) + a * hx * cam.right + b * hy * cam.up)[[0, 2]], 1.0] @ fit
+            for a in (-1, 1)
+            for b in (-1, 1)
+        ]
+    )
+    w, h = size
+    return (
+        math.ceil(uv[:, 0].min() * w - 0.5),
+        math.ceil(uv[:, 1].min() * h - 0.5),
+        math.floor(uv[:, 0].max() * w - 0.5) + 1,
+        math.floor(uv[:, 1].max() * h - 0.5) + 1,
+    )
+
+
 @pytest.mark.parametrize("spot", [(0.0, 0.0), (0.13, -0.07), (-0.2, 0.19)])
 def test_a_one_chart_press_snapshots_what_merging_its_boxes_gives(gl, spot):
     """A ball pressed into a plate (one chart) and itself at its bottom (inside one face of its
     atlas): each map's rectangle is exactly the one that merging every triangle's box gives
     (`merged_rects(triangle_boxes(...))`, the rule the module states), here worked out from the
-    jobs' triangle lists."""
+    jobs' triangle lists; on the plate (flat: one plane, one affine uv map), within the box of
+    its texels in the camera's view rectangle, grown by the same two texels."""
     plate = dentdemo.DentableSurface(gl.ctx, PLATE, 128)
     ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
     carver = dentdemo.Carver(gl.ctx)
@@ -541,7 +578,21 @@ def test_a_one_chart_press_snapshots_what_merging_its_boxes_gives(gl, spot):
         for job, (maps, rects) in zip(jobs, job_rects(jobs), strict=True):
             assert maps is job.target.maps
             boxes = triangle_boxes(job.target.gpu_mesh.mesh, job.camera.target_texels, maps.size)
-            assert rects == merged_rects(boxes) and len(rects) == 1
+            if job.target.gpu_mesh.mesh is not PLATE:
+                assert rects == merged_rects(boxes) and len(rects) == 1
+                continue
+            # The plate's: between the view's texels grown by one (the gutter's reach) and by
+            # three (two, and one for rounding at the view's edges), within the merged boxes.
+            ((x, y, w, h),) = rects
+            (merged,) = merged_rects(boxes)
+            view = view_texel_box(job, plate_uv_map(PLATE), maps.size)
+            for grow, holds in ((1, True), (3, False)):
+                bx0, by0 = max(view[0] - grow, merged[0]), max(view[1] - grow, merged[1])
+                bx1 = min(view[2] + grow, merged[0] + merged[2])
+                by1 = min(view[3] + grow, merged[1] + merged[3])
+                inside = x <= bx0 and y <= by0 and x + w >= bx1 and y + h >= by1
+                within = x >= bx0 and y >= by0 and x + w <= bx1 and y + h <= by1
+                assert inside if holds else within, (rects, view, merged, grow)
     finally:
         for thing in (carver, ball, plate):
             thing.release()
@@ -570,4 +621,62 @@ def test_a_press_across_charts_snapshots_what_merging_its_boxes_gives(gl, corner
         assert sorted(rects) == sorted(merged_rects(boxes))
     finally:
         for thing in (carver, ball, box):
+            thing.release()
+
+
+@pytest.mark.parametrize("plate_tilt", [0.0, 25.0, 60.0])
+@pytest.mark.parametrize("press_tilt", [0.0, 35.0])
+def test_a_plates_snapshot_is_its_dent_not_its_triangles(gl, plate_tilt, press_tilt):
+    """The ground (4 m, 128 triangles a 512^2 map spreads over 64 texels each), posed tilted
+    by `plate_tilt` about x, dented by a ball pressed `press_tilt` off its normal: every texel
+    whose height or normal changed lies in the snapshot, undo puts the map back bit for bit,
+    and the snapshot stays near the dent. The bound: the ball's shadow along the press on the
+    plane (the tool dents nowhere else: at most R / cos(tilt) from the contact), grown by the
+    view's margin (two plate texels and a pixel, one more pixel where the view snaps to whole
+    pixels; a pixel is a plate texel here, the ball's being finer; along the press, so also
+    stretched by 1 / cos(tilt)), by the snapshot's two texels and by one for rounding. The
+    triangles' boxes alone gave at least 64 texels a side."""
+    size, ball_size, depth = 512, 64, 0.005
+    ground = shape_mesh(Plane())
+    plate = dentdemo.DentableSurface(gl.ctx, ground, size)
+    ball = dentdemo.DentableSurface(gl.ctx, BALL, ball_size)
+    carver = dentdemo.Carver(gl.ctx)
+    log = UndoLog(carver._live().gl)
+    carver._live().undo_log = log
+    fit = plate_uv_map(ground)
+    a, t = math.radians(plate_tilt), math.radians(press_tilt)
+    rotation = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+    plate.model = np.eye(4)
+    plate.model[:3, :3], plate.model[:3, 3] = rotation, (0.3, -0.2, 0.1)
+    normal, along = rotation @ (0.0, 1.0, 0.0), rotation @ (1.0, 0.0, 0.0)
+    press = -(math.cos(t) * normal + math.sin(t) * along)
+    texel = 4.0 / size  # plate metres a texel
+    assert max(BALL.uv_scale()) / ball_size < texel  # the ball's texels are the finer
+    try:
+        for local in ((0.0, 0.0), (0.61, -0.37), (-1.23, 1.4)):
+            point = plate.model[:3, :3] @ (local[0], 0.0, local[1]) + plate.model[:3, 3]
+            ball.model = np.eye(4)
+            ball.model[:3, 3] = point + R * normal  # touching the plane at `point`
+            (before,) = _maps(gl, plate)
+            assert carver.press(plate, ball, dentdemo.Contact(point, press), depth)
+            (after,) = _maps(gl, plate)
+            inside = np.zeros((size, size), bool)
+            (snapshot,) = [snap for snap in log.entries[-1] if snap.maps is plate._live("")]
+            x, y, w, h = snapshot.rect
+            inside[y : y + h, x : x + w] = True
+            for i, dtype, comps in ((0, np.float32, 1), (1, np.uint8, 4)):
+                changed = _changed(before[i], after[i], size, comps, dtype)
+                assert changed.any()
+                assert not (changed & ~inside).any(), (
+                    f"{int((changed & ~inside).sum())} texels written outside the snapshot"
+                )
+            reach = (R + 4 * texel) / math.cos(t)  # metres from the contact, at most
+            centre = np.array([local[0], local[1], 1.0]) @ fit * size
+            limit = reach / texel + 2 + 1
+            assert x >= centre[0] - limit and x + w <= centre[0] + limit, (x, w, centre, limit)
+            assert y >= centre[1] - limit and y + h <= centre[1] + limit, (y, h, centre, limit)
+            assert log.undo() and _maps(gl, plate) == [before]
+    finally:
+        log.release()
+        for thing in (carver, ball, plate):
             thing.release()

@@ -18,7 +18,10 @@ one texel. So every texel a job writes lies inside its triangles' uv bounding bo
 a footprint that falls apart inside one chart gets the box around both parts), and the boxes of
 all jobs on one map are merged into a few rectangles (split where `GAP` texels or more of rows or
 columns hold no box, so that a dent across two far charts of an atlas keeps two small
-rectangles).
+rectangles). A flat target's boxes are cut to its texels in the view rectangle (`view_box`): a
+plate's triangles are few and large (the ground's span 64 texels of its 512^2 map each), and
+the sandbox's last 64 batches held 42 MB of snapshots with whole triangles' boxes, 8.5 MB
+without.
 
 Where the snapshots live: an entry's rectangles are packed side by side (`packed`: shelves,
 tallest first) into one pair of textures (height, normals) whose sides are the packing's rounded
@@ -43,6 +46,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.carve.linear import inverse3
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, flatten, rebuild_all_normals
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.library import gl_library
@@ -180,13 +184,86 @@ def _split(boxes: list[Box], gap: int, out: list[Rect]) -> None:
     out.append((x0, y0, x1 - x0, y1 - y0))
 
 
+def view_box(job: CarveJob) -> Box | None:
+    """For a flat target (`Mesh.is_flat`: a plate), the box of the texels whose points on its
+    plane lie in the job's view rectangle seen along the press (x0, y0, x1, y1, half-open, not
+    clamped to the map); None for another target, or a view that grazes the plane. Passes 4
+    and 5 clip every texel they write to that rectangle (clip.glsl), and the plane's uv is one
+    affine map, so the rectangle's image in the map is a parallelogram whose box holds them: a
+    plate's few large triangles otherwise snapshot most of its map for a dent of a few texels."""
+    mesh = job.target.gpu_mesh.mesh
+    if not mesh.is_flat():
+        return None
+    cam = job.camera
+    model = np.asarray(job.target.model, dtype=np.float64)
+    local = inverse3(model[:3, :3]).tolist()  # local from world, linear part: rows
+    dpdu, dpdv = (d[0].tolist() for d in mesh.triangle_derivatives())  # local m per uv unit
+    normal = _cross(dpdu, dpdv)
+    forward = _times(local, cam.forward.tolist())
+    along = _dot(normal, forward)
+    if abs(along) <= 1e-6 * math.sqrt(_dot(normal, normal) * _dot(forward, forward)):
+        return None  # grazing: the parallelogram is unbounded
+    # uv is affine on the plane: the eye moved along the press onto it (through the first
+    # triangle's first corner) gives the rectangle's centre, and the view's right and up moved
+    # the same way its half sides. On Python floats: a few scalars (numpy costs more a call).
+    vertex = int(mesh.indices[0, 0])
+    anchor = mesh.positions[vertex].tolist()
+    guu, guv, gvv = _dot(dpdu, dpdu), _dot(dpdu, dpdv), _dot(dpdv, dpdv)
+    det = guu * gvv - guv * guv
+
+    def onto(v: list[float], point: bool) -> tuple[float, float]:
+        """The uv offset (from the anchor's) of local point or direction `v` moved along the
+        press onto the plane: v + s forward - anchor = a dpdu + b dpdv (normal equations)."""
+        rel = [x - a for x, a in zip(v, anchor, strict=True)] if point else v
+        s = -_dot(normal, rel) / along
+        x = [r + s * f for r, f in zip(rel, forward, strict=True)]
+        bu, bv = _dot(x, dpdu), _dot(x, dpdv)
+        return (gvv * bu - guv * bv) / det, (guu * bv - guv * bu) / det
+
+    eye = [e - t for e, t in zip(cam.eye.tolist(), model[:3, 3].tolist(), strict=True)]
+    cu, cv = onto(_times(local, eye), True)
+    ru, rv = onto(_times(local, cam.right.tolist()), False)
+    wu, wv = onto(_times(local, cam.up.tolist()), False)
+    hx, hy = cam.half_extent
+    su, sv = hx * abs(ru) + hy * abs(wu), hx * abs(rv) + hy * abs(wv)
+    u0, v0 = mesh.uvs[vertex].tolist()
+    w, h = job.target.maps.size
+    return (
+        math.floor((u0 + cu - su) * w),
+        math.floor((v0 + cv - sv) * h),
+        math.ceil((u0 + cu + su) * w),
+        math.ceil((v0 + cv + sv) * h),
+    )
+
+
+def _dot(a: Sequence[float], b: Sequence[float]) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: Sequence[float], b: Sequence[float]) -> list[float]:
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _times(rows: list[list[float]], v: Sequence[float]) -> list[float]:
+    return [_dot(rows[0], v), _dot(rows[1], v), _dot(rows[2], v)]
+
+
+def _intersected(a: Box, b: Box) -> Box | None:
+    x0, y0, x1, y1 = max(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), min(a[3], b[3])
+    return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
+
+
 def job_rects(jobs: Sequence[CarveJob]) -> list[tuple[SurfaceMaps, list[Rect]]]:
     """The maps the jobs write and, for each, the rectangles holding every texel written."""
     by_maps: dict[int, tuple[SurfaceMaps, list[Box]]] = {}
     for job in jobs:
         maps = job.target.maps
         # The gutter's triangles are among the texels' (`collision_cameras`): so are their boxes.
-        boxes = [grown(box, MARGIN, maps.size) for box in footprint_boxes(job)]
+        found: list[Box] = footprint_boxes(job)
+        view = view_box(job)
+        if view is not None:  # and a flat target's texels in its view's
+            found = [box for box in (_intersected(box, view) for box in found) if box]
+        boxes = [grown(box, MARGIN, maps.size) for box in found]
         by_maps.setdefault(id(maps), (maps, []))[1].extend(boxes)
     return [(maps, merged_rects(found)) for maps, found in by_maps.values()]
 

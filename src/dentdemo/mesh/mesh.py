@@ -352,10 +352,10 @@ class Mesh:
     def prepare_queries(self) -> None:
         """Build now the cached structures pass 1 and the undo log query (corners, bounding
         spheres, clusters, uv derivatives and bounds, chart borders and charts, closedness, the
-        facets' sag, how `frame_near` finds its triangle), as a body is made: otherwise each
-        body builds them at its first hit, which then costs about 3 ms more for a 1 728-triangle
-        ball on the development VM (a sandbox drop's first hits are mostly first hits; the
-        check of a ball's triangles for `frame_near` alone is 0.8 ms)."""
+        facets' sag, how `frame_near` finds its triangle, flatness), as a body is made:
+        otherwise each body builds them at its first hit, which then costs about 3 ms more for
+        a 1 728-triangle ball on the development VM (a sandbox drop's first hits are mostly
+        first hits; the check of a ball's triangles for `frame_near` alone is 0.8 ms)."""
         self.corner_array()
         self.face_normals()
         self.triangle_uv_bounds()
@@ -369,6 +369,7 @@ class Mesh:
         self.encloses_volume()
         self.facet_sag()
         self._frame_lookup()
+        self.is_flat()
 
     def cluster_members_spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The bounding spheres of each cluster's triangles laid out as `clusters()`'s members:
@@ -492,20 +493,37 @@ class Mesh:
             distance,
         )
 
+    def is_flat(self) -> bool:
+        """Whether every triangle has one plane and one affine uv map (a plate), to float32's
+        rounding of positions and uvs: normals equal, uv derivatives within 1e-6 of their size
+        (cached)."""
+        cached = getattr(self, "_flat_cache", None)
+        if cached is None or cached[0] != len(self.indices):
+            cached = (len(self.indices), self._one_affine_map(1e-6))
+            self._flat_cache = cached
+        return cached[1]
+
+    def _one_affine_map(self, tolerance: float) -> bool:
+        """One plane (every normal the same) and uv derivatives within `tolerance` of their
+        size of the first triangle's."""
+        dpdu, dpdv = self.triangle_derivatives()
+        return self.shared_normal() is not None and all(
+            np.abs(d - d[0]).max() <= tolerance * max(float(np.abs(d[0]).max()), 1e-30)
+            for d in (dpdu, dpdv)
+        )
+
     def _frame_lookup(self) -> str:
         """How `frame_near` finds its triangle (cached): "flat" where every triangle has one
         plane and one affine uv map (their normals and uv derivatives agree to 1e-9 of their
-        size), "cube" for a built-in sphere whose triangles are still those
-        `primitives.sphere` laid out (`cube.cube_triangle` finds them), else "search"."""
+        size: closer than `is_flat`, as a plate's camera placed from another triangle's frame
+        moves by their rounding, which moved one texel's rebuilt normal by 1/255 in a test),
+        "cube" for a built-in sphere whose triangles are still those `primitives.sphere` laid
+        out (`cube.cube_triangle` finds them), else "search"."""
         cached = getattr(self, "_frame_lookup_cache", None)
         if cached is not None and cached[0] == len(self.indices):
             return cached[1]
-        dpdu, dpdv = self.triangle_derivatives()
         way = "search"
-        if self.shared_normal() is not None and all(
-            np.abs(d - d[0]).max() <= 1e-9 * max(float(np.abs(d[0]).max()), 1e-30)
-            for d in (dpdu, dpdv)
-        ):
+        if self._one_affine_map(1e-9):
             way = "flat"
         elif self.bound is not None and self.bound.quad == 1 and self.bound.grid > 0:
             laid = cube_atlas_indices(self.bound.grid)
