@@ -391,6 +391,41 @@ def test_a_body_s_first_hit_builds_no_mesh_query_structures(gl, monkeypatch):
     sim.close()
 
 
+@pytest.mark.parametrize(
+    ("scene", "drop"),
+    [
+        ("ball_drop.toml", (0.0, 0.1, 0.0)),  # a ball onto the plates' corner: balls and plates
+        ("ball_drop.toml", (-0.25, 0.22, -0.75)),  # onto the steel block: a box
+        ("crates.toml", (-0.12, 0.35, 0.0)),  # onto a crate: a loaded mesh that may hide itself
+    ],
+    ids=["plates", "box", "loaded-mesh"],
+)
+def test_a_body_s_first_hit_makes_no_vertex_array_or_index_stream(gl, scene, drop):
+    """Every body's index streams and the vertex arrays of the programs that may draw its
+    triangle lists are made with the body (Carver.prepare), not in the frame of its first hit:
+    the hits of a dropped ball leave each body's count of both as it was when it was made."""
+    from dentdemo.app.simulation import Simulation
+
+    lib = load_materials()
+    sim = Simulation(gl, load_scene(ROOT / "assets" / "scenes" / scene, lib), lib)
+    try:
+        sim.drop_ball(drop, velocity=(0.0, -3.0, 0.0), radius=0.02)
+        made = {
+            key: (len(body.gpu_mesh._vaos), len(body.gpu_mesh._subsets))
+            for key, body in sim.bodies.items()
+        }
+        for _ in range(40):
+            sim.step()
+        assert sim.stats.hits > 0 and len(sim.dents) >= 1  # the ball landed and was carved
+        after = {
+            key: (len(body.gpu_mesh._vaos), len(body.gpu_mesh._subsets))
+            for key, body in sim.bodies.items()
+        }
+        assert after == made, {k: (made[k], v) for k, v in after.items() if v != made[k]}
+    finally:
+        sim.close()
+
+
 def test_the_address_map_view_draws_pass_2_for_convex_targets_too(gl):
     """Pass 2 is left out for built-in targets (docs/carve.md), but the address-map view shows
     it: with the view on, the last carve's tile holds the surface's (u, v) and view depths."""

@@ -156,7 +156,9 @@ class Simulation:
     def _make_mesh(self, shape: Shape) -> tuple[Mesh, GpuMesh]:
         mesh = shape_mesh(shape)
         mesh.prepare_queries()  # not at the body's first hit (a carve's frame)
-        return mesh, GpuMesh(self.gl, mesh)
+        gpu = GpuMesh(self.gl, mesh)
+        self.carver.prepare(gpu)  # nor its vertex arrays and index streams
+        return mesh, gpu
 
     def _release_body(self, body: SimBody) -> None:
         """The body's maps deleted, and its mesh's buffers once no other body draws them."""

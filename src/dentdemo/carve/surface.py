@@ -145,7 +145,7 @@ class GpuMesh:
                 f if n in used else f"{f[0]}x4"
                 for f, n in zip(self._LAYOUT.split(), self._NAMES, strict=True)
             )
-            ibo = self._subsets[subset].buffer if subset else self.ibo
+            ibo = self._stream(subset).buffer if subset else self.ibo
             buffers = [(self.vbo, fmt, *used)]
             if "in_thickness" in prog:  # the gather's bound (see ensure_thickness)
                 buffers.append((self.thickness_vbo, "1f", "in_thickness"))
@@ -161,10 +161,15 @@ class GpuMesh:
             return
         if len(triangles) == 0:
             return
-        if subset not in self._subsets:
-            self._subsets[subset] = _IndexStream(self._ctx, 4 * self.ibo.size)
-        first = self._subsets[subset].place(triangles, self.mesh.indices)
+        first = self._stream(subset).place(triangles, self.mesh.indices)
         self.vao(prog, subset).render(moderngl.TRIANGLES, vertices=3 * len(triangles), first=first)
+
+    def _stream(self, subset: str) -> _IndexStream:
+        """The index stream of `subset`, made when first asked for."""
+        stream = self._subsets.get(subset)
+        if stream is None:
+            stream = self._subsets[subset] = _IndexStream(self._ctx, 4 * self.ibo.size)
+        return stream
 
     def drawer(
         self, triangles: np.ndarray | None, subset: str
