@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.constants import MIN_COS, RING_TEXELS, SLAB_MARGIN_TEXELS
 from dentdemo.carve.footprint import Overlap, Projected, Query, Rect, meeting_many, overlap
-from dentdemo.carve.linear import column_scale, inverse3
+from dentdemo.carve.linear import Floats3, column_scale, cross3, dot3, inverse3, rows_times
 from dentdemo.mesh.mesh import Mesh
 
 Vec3 = NDArray[np.float64]
@@ -93,22 +93,15 @@ class BodyPose:
     texel_metres: float = 0.0
 
 
-#: A 3-vector as Python floats: the few vectors of a camera's frame are worked out on floats,
-#: which cost less per operation than numpy calls on arrays of three.
-Floats3 = tuple[float, float, float]
-
-
+# The few vectors of a camera's frame are worked out on Python floats (carve/linear.py), which
+# cost less per operation than numpy calls on arrays of three.
 def _floats(v: object) -> Floats3:
     x, y, z = np.asarray(v, dtype=np.float64).tolist()
     return x, y, z
 
 
-def _dot(a: Floats3, b: Floats3) -> float:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
 def _length(v: Floats3) -> float:
-    return math.sqrt(_dot(v, v))
+    return math.sqrt(dot3(v, v))
 
 
 def _scaled(v: Floats3, k: float) -> Floats3:
@@ -119,18 +112,9 @@ def _unit(v: Floats3) -> Floats3:
     return _scaled(v, 1.0 / max(_length(v), 1e-30))
 
 
-def _cross(a: Floats3, b: Floats3) -> Floats3:
-    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
-
-
-def _rows_times(rows: list[list[float]], v: Floats3) -> Floats3:
-    """A 3 x 3 matrix (its rows) times a vector."""
-    return _dot(rows[0], v), _dot(rows[1], v), _dot(rows[2], v)  # type: ignore[arg-type]
-
-
 def _across(v: Floats3, unit: Floats3) -> Floats3:
     """`v` less its part along `unit`."""
-    along = _dot(v, unit)
+    along = dot3(v, unit)
     return v[0] - along * unit[0], v[1] - along * unit[1], v[2] - along * unit[2]
 
 
@@ -139,7 +123,7 @@ def _axes(dpdu: Floats3, forward: Floats3) -> tuple[Floats3, Floats3]:
     if _length(right) < 1e-9 * max(_length(dpdu), 1e-30):
         right = _across((1.0, 0.0, 0.0) if abs(forward[0]) < 0.9 else (0.0, 0.0, 1.0), forward)
     right = _unit(right)
-    return right, _cross(right, forward)
+    return right, cross3(right, forward)
 
 
 @dataclass(frozen=True)
@@ -186,18 +170,18 @@ def camera_draft(
     point = _floats(contact.point)
     tx, ty, tz = model[:3, 3].tolist()
     rel = (point[0] - tx, point[1] - ty, point[2] - tz)
-    surf = target.mesh.frame_near(np.array(_rows_times(inverse3(linear).tolist(), rel)))
+    surf = target.mesh.frame_near(np.array(rows_times(inverse3(linear).tolist(), rel)))
     # World metres per uv unit.
-    dpdu = _rows_times(rows, _floats(surf.dpdu))
-    dpdv = _rows_times(rows, _floats(surf.dpdv))
+    dpdu = rows_times(rows, _floats(surf.dpdu))
+    dpdv = rows_times(rows, _floats(surf.dpdv))
     width, height = map_size
     right, up = _axes(dpdu, forward)
 
     # Texel pitch as the camera sees it, metres; grazing views are clamped.
     texel_u = _length(dpdu) / width
     texel_v = _length(dpdv) / height
-    pitch_x = max(abs(_dot(dpdu, right)) / width, MIN_COS * texel_u)
-    pitch_y = max(abs(_dot(dpdv, up)) / height, MIN_COS * texel_v)
+    pitch_x = max(abs(dot3(dpdu, right)) / width, MIN_COS * texel_u)
+    pitch_y = max(abs(dot3(dpdv, up)) / height, MIN_COS * texel_v)
     # The tool is known to its own texels only: where the target's texels are finer, a pixel spans
     # a whole number of them (pixel centres stay on texel centres) up to one of the tool's texels.
     pitch_x *= max(1, math.floor(tool.texel_metres / pitch_x))

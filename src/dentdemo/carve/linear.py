@@ -1,10 +1,29 @@
-"""3 x 3 linear algebra on Python floats, for the few small matrices a hit's planning inverts
-(numpy's general routines cost 10-20 µs a call on such sizes; these cost 2-3 µs)."""
+"""3 x 3 linear algebra on Python floats, for the few small matrices and vectors a hit's
+planning works with (numpy's general routines cost 10-20 µs a call on such sizes; these cost
+2-3 µs, and a product of vectors of three less than a numpy call)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import NDArray
+
+#: A 3-vector as Python floats (any sequence of three is accepted where one is read).
+Floats3 = tuple[float, float, float]
+
+
+def dot3(a: Sequence[float], b: Sequence[float]) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross3(a: Sequence[float], b: Sequence[float]) -> Floats3:
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+
+
+def rows_times(rows: Sequence[Sequence[float]], v: Sequence[float]) -> Floats3:
+    """A 3 x 3 matrix (its rows) times a vector."""
+    return dot3(rows[0], v), dot3(rows[1], v), dot3(rows[2], v)
 
 
 def inverse3(m: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -46,7 +46,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo.carve.linear import inverse3
+from dentdemo.carve.linear import cross3, dot3, inverse3, rows_times
 from dentdemo.carve.surface import GpuMesh, SurfaceMaps, flatten, rebuild_all_normals
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.library import gl_library
@@ -198,32 +198,32 @@ def view_box(job: CarveJob) -> Box | None:
     model = np.asarray(job.target.model, dtype=np.float64)
     local = inverse3(model[:3, :3]).tolist()  # local from world, linear part: rows
     dpdu, dpdv = (d[0].tolist() for d in mesh.triangle_derivatives())  # local m per uv unit
-    normal = _cross(dpdu, dpdv)
-    forward = _times(local, cam.forward.tolist())
-    along = _dot(normal, forward)
-    if abs(along) <= 1e-6 * math.sqrt(_dot(normal, normal) * _dot(forward, forward)):
+    normal = cross3(dpdu, dpdv)
+    forward = rows_times(local, cam.forward.tolist())
+    along = dot3(normal, forward)
+    if abs(along) <= 1e-6 * math.sqrt(dot3(normal, normal) * dot3(forward, forward)):
         return None  # grazing: the parallelogram is unbounded
     # uv is affine on the plane: the eye moved along the press onto it (through the first
     # triangle's first corner) gives the rectangle's centre, and the view's right and up moved
     # the same way its half sides. On Python floats: a few scalars (numpy costs more a call).
     vertex = int(mesh.indices[0, 0])
     anchor = mesh.positions[vertex].tolist()
-    guu, guv, gvv = _dot(dpdu, dpdu), _dot(dpdu, dpdv), _dot(dpdv, dpdv)
+    guu, guv, gvv = dot3(dpdu, dpdu), dot3(dpdu, dpdv), dot3(dpdv, dpdv)
     det = guu * gvv - guv * guv
 
-    def onto(v: list[float], point: bool) -> tuple[float, float]:
+    def onto(v: Sequence[float], point: bool) -> tuple[float, float]:
         """The uv offset (from the anchor's) of local point or direction `v` moved along the
         press onto the plane: v + s forward - anchor = a dpdu + b dpdv (normal equations)."""
         rel = [x - a for x, a in zip(v, anchor, strict=True)] if point else v
-        s = -_dot(normal, rel) / along
+        s = -dot3(normal, rel) / along
         x = [r + s * f for r, f in zip(rel, forward, strict=True)]
-        bu, bv = _dot(x, dpdu), _dot(x, dpdv)
+        bu, bv = dot3(x, dpdu), dot3(x, dpdv)
         return (gvv * bu - guv * bv) / det, (guu * bv - guv * bu) / det
 
     eye = [e - t for e, t in zip(cam.eye.tolist(), model[:3, 3].tolist(), strict=True)]
-    cu, cv = onto(_times(local, eye), True)
-    ru, rv = onto(_times(local, cam.right.tolist()), False)
-    wu, wv = onto(_times(local, cam.up.tolist()), False)
+    cu, cv = onto(rows_times(local, eye), True)
+    ru, rv = onto(rows_times(local, cam.right.tolist()), False)
+    wu, wv = onto(rows_times(local, cam.up.tolist()), False)
     hx, hy = cam.half_extent
     su, sv = hx * abs(ru) + hy * abs(wu), hx * abs(rv) + hy * abs(wv)
     u0, v0 = mesh.uvs[vertex].tolist()
@@ -234,18 +234,6 @@ def view_box(job: CarveJob) -> Box | None:
         math.ceil((u0 + cu + su) * w),
         math.ceil((v0 + cv + sv) * h),
     )
-
-
-def _dot(a: Sequence[float], b: Sequence[float]) -> float:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _cross(a: Sequence[float], b: Sequence[float]) -> list[float]:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def _times(rows: list[list[float]], v: Sequence[float]) -> list[float]:
-    return [_dot(rows[0], v), _dot(rows[1], v), _dot(rows[2], v)]
 
 
 def _intersected(a: Box, b: Box) -> Box | None:
