@@ -410,17 +410,18 @@ def test_a_body_s_first_hit_makes_no_vertex_array_or_index_stream(gl, scene, dro
     sim = Simulation(gl, load_scene(ROOT / "assets" / "scenes" / scene, lib), lib)
     try:
         sim.drop_ball(drop, velocity=(0.0, -3.0, 0.0), radius=0.02)
-        made = {
-            key: (len(body.gpu_mesh._vaos), len(body.gpu_mesh._subsets))
-            for key, body in sim.bodies.items()
-        }
+
+        def counts() -> dict[str, tuple[int, int]]:
+            return {
+                key: (len(body.gpu_mesh._vaos), len(body.gpu_mesh._subsets))
+                for key, body in sim.bodies.items()
+            }
+
+        made = counts()
         for _ in range(40):
             sim.step()
         assert sim.stats.hits > 0 and len(sim.dents) >= 1  # the ball landed and was carved
-        after = {
-            key: (len(body.gpu_mesh._vaos), len(body.gpu_mesh._subsets))
-            for key, body in sim.bodies.items()
-        }
+        after = counts()
         assert after == made, {k: (made[k], v) for k, v in after.items() if v != made[k]}
     finally:
         sim.close()

@@ -138,6 +138,20 @@ def _changed(a: bytes, b: bytes, size: int, components: int, dtype) -> np.ndarra
     return (x != y).any(axis=2)
 
 
+def _assert_written_inside(before, after, rects, size: int) -> None:
+    """The press changed some heights and some normals (readbacks `before`, `after` of one
+    size x size map), and every texel it changed lies in one of `rects` (x, y, w, h)."""
+    inside = np.zeros((size, size), bool)
+    for x, y, w, h in rects:
+        inside[y : y + h, x : x + w] = True
+    for i, dtype, comps in ((0, np.float32, 1), (1, np.uint8, 4)):
+        changed = _changed(before[i], after[i], size, comps, dtype)
+        assert changed.any()
+        assert not (changed & ~inside).any(), (
+            f"{int((changed & ~inside).sum())} texels written outside the snapshot"
+        )
+
+
 def test_snapshot_rectangles_hold_every_texel_a_hit_writes(gl):
     """A ball on a box's edge and corner dents several charts of its atlas: every texel whose
     height or normal the press changed lies in the rectangles snapshotted for it, and undo
@@ -158,17 +172,8 @@ def test_snapshot_rectangles_hold_every_texel_a_hit_writes(gl):
             (before,) = _maps(gl, box)
             assert carver.press(box, ball, dentdemo.Contact(point, d), 0.005)
             (after,) = _maps(gl, box)
-            inside = np.zeros((256, 256), bool)
-            for snap in log.entries[-1]:
-                if snap.maps is box._live(""):
-                    x, y, w, h = snap.rect
-                    inside[y : y + h, x : x + w] = True
-            for i, dtype, comps in ((0, np.float32, 1), (1, np.uint8, 4)):
-                changed = _changed(before[i], after[i], 256, comps, dtype)
-                assert changed.any()
-                assert not (changed & ~inside).any(), (
-                    f"{int((changed & ~inside).sum())} texels written outside the snapshot"
-                )
+            rects = [snap.rect for snap in log.entries[-1] if snap.maps is box._live("")]
+            _assert_written_inside(before, after, rects, 256)
             assert log.undo() and _maps(gl, box) == [before]
     finally:
         log.release()
@@ -660,16 +665,9 @@ def test_a_plates_snapshot_is_its_dent_not_its_triangles(gl, plate_tilt, press_t
             (before,) = _maps(gl, plate)
             assert carver.press(plate, ball, dentdemo.Contact(point, press), depth)
             (after,) = _maps(gl, plate)
-            inside = np.zeros((size, size), bool)
             (snapshot,) = [snap for snap in log.entries[-1] if snap.maps is plate._live("")]
+            _assert_written_inside(before, after, [snapshot.rect], size)
             x, y, w, h = snapshot.rect
-            inside[y : y + h, x : x + w] = True
-            for i, dtype, comps in ((0, np.float32, 1), (1, np.uint8, 4)):
-                changed = _changed(before[i], after[i], size, comps, dtype)
-                assert changed.any()
-                assert not (changed & ~inside).any(), (
-                    f"{int((changed & ~inside).sum())} texels written outside the snapshot"
-                )
             reach = (R + 4 * texel) / math.cos(t)  # metres from the contact, at most
             centre = np.array([local[0], local[1], 1.0]) @ fit * size
             limit = reach / texel + 2 + 1
