@@ -87,28 +87,43 @@ def test_bench_tiny_json_schema(gl, tmp_path):
     assert "GPU ms/hit" in result.stdout and data["machine"]["renderer"] in result.stdout
 
 
-def test_the_frame_table_times_planning_inside_the_carve(gl):
-    """The sandbox frame table's planning per hit: the time of every `Carver.plan_many` call the
-    frames made (the hits they planned counted here by a second wrapper), a part of the carve's
-    own time, never more."""
+def test_the_frame_table_times_planning_undo_and_proxies_inside_the_carve(gl):
+    """The sandbox frame table's parts of a hit's carve: the time of every `Carver.plan_many`
+    call the frames made, of every `UndoLog.record` and of every `Simulation._follow_dents`
+    (the collision proxies' presses), each counted here by a second wrapper. Each is a part of
+    the carve's own time, and they never overlap (the carve plans, snapshots, then presses the
+    proxies while its gathers are drawn), so together they are at most the carve."""
     from dentdemo.bench import run as bench_run
 
-    calls = []
-    make = bench_run._plan_clock
+    calls: dict[str, list] = {"plan_many": [], "record": [], "_follow_dents": []}
+    make = bench_run._clock
 
-    def counted(carver):  # noqa: ANN001, ANN202
-        spent = make(carver)
-        plan_many = carver.plan_many
-        carver.plan_many = lambda presses: calls.extend(presses) or plan_many(presses)
+    def counted(owner, name):  # noqa: ANN001, ANN202
+        spent = make(owner, name)
+        timed = getattr(owner, name)
+
+        def count(*args):  # noqa: ANN002, ANN202
+            calls[name].append(args)
+            return timed(*args)
+
+        setattr(owner, name, count)
         return spent
 
-    bench_run._plan_clock = counted
+    bench_run._clock = counted
     try:
         (row,) = bench_run.frame_times(gl, [12], 45, size=(64, 48))
     finally:
-        bench_run._plan_clock = make
-    assert row["hits"] > 0 and len(calls) == row["hits"]  # one plan a hit carved
-    assert 0.0 < row["plan_ms_per_hit"] <= row["carve_ms_per_hit"]
+        bench_run._clock = make
+    hits = row["hits"]
+    assert hits > 0
+    assert sum(len(presses) for (presses,) in calls["plan_many"]) == hits  # one plan a hit
+    # One snapshot a batch, of the hits the batch planned (an undo entry is one frame's queue).
+    assert len(calls["record"]) == len(calls["plan_many"])
+    assert sum(len(batch) for (batch,) in calls["record"]) == hits
+    assert len(calls["_follow_dents"]) == hits  # both bodies' proxies of each hit, in one call
+    parts = [row[f"{part}_ms_per_hit"] for part in ("plan", "undo", "proxies")]
+    assert all(part > 0.0 for part in parts)
+    assert sum(parts) <= row["carve_ms_per_hit"]
 
 
 def test_bench_window_measures_the_real_window(xvfb, tmp_path):

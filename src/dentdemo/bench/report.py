@@ -68,16 +68,24 @@ def print_table(r: dict) -> None:
         print(f"{size:>5}²{'':19}" + "  ".join(f"{vals.get(n, 0):8.2f}" for n in names))
     print(
         f"{'bodies':>6} {'frame ms':>9} {'physics':>8} {'carve':>7} {'render':>7}"
-        f" {'hits':>6} {'carve/hit':>9} {'plan/hit':>8}"
-        "  (1280x720; medians a frame, per hit over all frames; plan: pass 1, part of carve)"
+        f" {'hits':>6} {'carve/hit':>9} {'plan/hit':>8} {'undo/hit':>8} {'proxy/hit':>9}"
+        "  (1280x720; medians a frame, per hit over all frames; plan: pass 1, undo: the"
+        " snapshots, proxy: the collision proxies' presses, each part of carve)"
     )
     for f in r["frames"]:
-        per_hit, plan = f["carve_ms_per_hit"], f.get("plan_ms_per_hit")
+        parts = [
+            ("carve_ms_per_hit", 9),
+            ("plan_ms_per_hit", 8),
+            ("undo_ms_per_hit", 8),
+            ("proxies_ms_per_hit", 9),
+        ]
         print(
             f"{f['bodies']:>6} {f['frame_ms']:9.1f} {f['physics_ms']:8.1f} "
-            f"{f['carve_ms']:7.1f} {f['render_ms']:7.1f} {f['hits']:>6} "
-            + (f"{per_hit:9.2f}" if per_hit is not None else f"{'-':>9}")
-            + (f" {plan:8.2f}" if plan is not None else f" {'-':>8}")
+            f"{f['carve_ms']:7.1f} {f['render_ms']:7.1f} {f['hits']:>6}"
+            + "".join(
+                f" {f[key]:{width}.2f}" if f.get(key) is not None else f" {'-':>{width}}"
+                for key, width in parts
+            )
         )
     if r.get("window"):
         size = "x".join(str(v) for v in r["window"][0]["size"])

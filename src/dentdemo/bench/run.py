@@ -318,7 +318,10 @@ def frame_times(
     """Sandbox frames through the frame loop (physics step, carves, render at `size`) with N
     bodies dropped on plates; each phase ends with glFinish so that its time is its own. Besides
     the medians a frame: the carve's ms over all the frames and per hit carved in them, and of
-    that the planning's (pass 1, `Carver.plan_many`, on the CPU) per hit."""
+    that, per hit, the planning's (pass 1, `Carver.plan_many`, on the CPU), the undo
+    snapshots' (`UndoLog.record`) and the collision proxies' presses (app/reshape.py,
+    `Simulation._follow_dents`): the last two came after the release issue 20 measures against
+    (b498167), which did neither, so a comparison with it can leave them out."""
     from dentdemo.app.controller import DemoController
     from dentdemo.app.loop import FrameLoop, ImageBackend
 
@@ -329,7 +332,9 @@ def frame_times(
         drop_balls(app, count)
         loop = FrameLoop(app, ImageBackend(size, None), fixed_dt=True)
         hits_before = app.sim.stats.hits
-        planning = _plan_clock(app.sim.carver)
+        planning = _clock(app.sim.carver, "plan_many")
+        undo = _clock(app.sim.undo_log, "record")
+        proxies = _clock(app.sim, "_follow_dents")
         timings = [loop.frame(measure=True) for _ in range(frames)]
         hits = app.sim.stats.hits - hits_before
         physics = [t.physics_ms for t in timings]
@@ -349,6 +354,8 @@ def frame_times(
                 "carve_ms_total": sum(carve),
                 "carve_ms_per_hit": sum(carve) / hits if hits else None,
                 "plan_ms_per_hit": planning[0] * 1e3 / hits if hits else None,
+                "undo_ms_per_hit": undo[0] * 1e3 / hits if hits else None,
+                "proxies_ms_per_hit": proxies[0] * 1e3 / hits if hits else None,
             }
         )
         app.close()
@@ -356,20 +363,22 @@ def frame_times(
     return out
 
 
-def _plan_clock(carver: Carver) -> list[float]:
-    """Seconds of wall time `carver.plan_many` takes from now on, summed in the list's one item
-    (the instance's method wrapped: the carve plans each batch's hits with it)."""
+def _clock(owner: object, name: str) -> list[float]:
+    """Seconds of wall time `owner.name` (a method) takes from now on, summed in the list's one
+    item: the instance's method wrapped, so every call the frames make through the instance is
+    timed (the carve plans each batch with `Carver.plan_many`, snapshots it with
+    `UndoLog.record` and presses the proxies with `Simulation._follow_dents`)."""
     spent = [0.0]
-    plan_many = carver.plan_many
+    method = getattr(owner, name)
 
-    def timed(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202 - plan_many's own
+    def timed(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202 - the method's own
         start = time.perf_counter()
         try:
-            return plan_many(*args, **kwargs)
+            return method(*args, **kwargs)
         finally:
             spent[0] += time.perf_counter() - start
 
-    carver.plan_many = timed  # type: ignore[method-assign]
+    setattr(owner, name, timed)
     return spent
 
 
