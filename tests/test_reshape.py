@@ -273,3 +273,68 @@ def test_a_point_leaves_a_solid_where_its_distance_crosses_zero(kind):
     assert len(points) > 50 and np.isfinite(a).all() and (a > 0).all()
     assert np.abs(solid(points + a[:, None] * d)).max() < 1e-12
     assert (solid(points + (a - 1e-6)[:, None] * d) < 0).all()
+
+
+def _exit_along(p: np.ndarray, d: np.ndarray, kind: str, tool: dict) -> np.ndarray:
+    """How far each world point `p` moves along unit `d` before it leaves the tool's solid (0
+    where it starts outside), worked out here in world coordinates: a sphere's far root of
+    |p + a d - c| = r; a box's slabs (Kay-Kajiya: the nearest far plane of the three pairs,
+    inside only while every near plane is behind); the ground's plane y = h, left going up."""
+    if kind == "sphere":
+        v = p - tool["centre"]
+        b = np.einsum("ij,ij->i", v, d)
+        c = np.einsum("ij,ij->i", v, v) - tool["radius"] ** 2
+        return np.where(c < 0, -b + np.sqrt(np.maximum(b * b - c, 0.0)), 0.0)
+    if kind == "box":
+        q = (p - tool["origin"]) @ tool["rotation"]
+        e = d @ tool["rotation"]
+        inside = (np.abs(q) < tool["half"]).all(axis=1)
+        far = np.full(q.shape, np.inf)
+        moving = np.abs(e) > 0
+        far[moving] = ((np.sign(e) * tool["half"] - q)[moving]) / e[moving]
+        return np.where(inside, far.min(axis=1), 0.0)
+    rise = d[:, 1]
+    below = p[:, 1] < tool["height"]
+    return np.where(below & (rise > 0), (tool["height"] - p[:, 1]) / np.where(rise > 0, rise, 1), 0)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1.25], ids=["rigid", "scaled"])
+@pytest.mark.parametrize("kind", ["sphere", "box", "ground"])
+def test_a_posed_press_moves_each_point_to_where_it_leaves_the_tool(kind, scale):
+    # A ball turned and moved (and, as a pose that is not a rotation, scaled: the press then
+    # works in the world) pressed by each tool the sandbox has: every point ends where its line
+    # along the inward normal, from its posed place less the tool's advance, leaves the tool's
+    # solid (worked out in the world here), within the bound; the rest stay.
+    from dentdemo.app.reshape import box_field
+
+    rng = np.random.default_rng(11)
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    rotation *= np.sign(np.linalg.det(rotation))  # a rotation, not a mirror
+    model = np.eye(4)
+    model[:3, :3] = rotation * scale
+    model[:3, 3] = (0.3, 0.5, -0.2)
+    proxy = DentProxy.of(primitives.sphere(R, subdivisions=16))
+    world = proxy.points @ model[:3, :3].T + model[:3, 3]
+    normal = proxy.normals @ rotation.T  # a uniform scale keeps the normals' directions
+    bottom = model[:3, 3] - (0.0, R * scale, 0.0)  # the ball's lowest point
+    direction, advance = np.array([0.0, 1.0, 0.0]), 0.008  # the tool comes up from below
+    if kind == "sphere":
+        tool = {"centre": bottom - (0.0, 0.02, 0.0), "radius": 0.02}
+        field = sphere_field(tool["centre"], tool["radius"])
+    elif kind == "box":
+        box = np.eye(4)
+        box[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        box[:3, :3] *= np.sign(np.linalg.det(box[:3, :3]))
+        half = np.array([0.03, 0.01, 0.05])
+        # Its centre below the ball's lowest point by its extent along y: it touches there.
+        box[:3, 3] = bottom - (0.0, float(np.abs(box[1, :3]) @ half), 0.0)
+        tool = {"rotation": box[:3, :3], "origin": box[:3, 3], "half": half}
+        field = box_field(box, half)
+    else:
+        tool = {"height": float(bottom[1])}
+        field = ground_field(tool["height"])
+    bound = 0.006
+    proxy.press(model, field, direction, advance, bound)
+    expected = np.minimum(_exit_along(world - direction * advance, -normal, kind, tool), bound)
+    assert (expected > 0).sum() > 5 and (expected == 0).sum() > 100
+    assert np.abs(proxy.inward - np.minimum(expected, proxy.thickness)).max() < 1e-9

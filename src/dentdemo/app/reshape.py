@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.carve.linear import determinant3
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.mesh.thickness import closed_thickness, vertex_thickness
@@ -72,9 +73,19 @@ def _unit_proxy() -> DentProxy:
 
 class _Solid:
     """A convex solid's signed distance (a `Field`: world metres, < 0 inside) with `leave`,
-    where a point moving along a line leaves it, in closed form (no bisection)."""
+    where a point moving along a line leaves it, in closed form (no bisection), and `framed`,
+    the same solid in a body's frame."""
 
     def __call__(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        raise NotImplementedError
+
+    def inside(self, p: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Whether each point lies inside (its distance < 0)."""
+        return self(p) < 0.0
+
+    def framed(self, rotation: NDArray[np.float64], origin: NDArray[np.float64]) -> _Solid:
+        """The solid in the frame whose point x is the world point rotation @ x + origin
+        (a rigid pose: `rotation` orthonormal), whose distances and exits are the same."""
         raise NotImplementedError
 
     def leave(self, p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -88,7 +99,11 @@ class _Sphere(_Solid):
         self.centre, self.radius = np.asarray(centre, dtype=np.float64), float(radius)
 
     def __call__(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.linalg.norm(p - self.centre, axis=1) - self.radius
+        v = p - self.centre
+        return np.sqrt((v * v).sum(axis=1)) - self.radius  # np.linalg.norm's sum, fewer calls
+
+    def framed(self, rotation: NDArray[np.float64], origin: NDArray[np.float64]) -> _Solid:
+        return _Sphere((self.centre - origin) @ rotation, self.radius)
 
     def leave(self, p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
         # |v + a d| = r, v = p - centre: a^2 + 2 a (v.d) + |v|^2 - r^2 = 0, the larger root.
@@ -99,36 +114,57 @@ class _Sphere(_Solid):
 
 
 class _Box(_Solid):
-    def __init__(self, model: NDArray[np.float64], half: NDArray[np.float64]) -> None:
-        self.rotation, self.origin = model[:3, :3], model[:3, 3]
+    """The box of half extents `half` about `origin`, its axes the columns of `rotation`."""
+
+    def __init__(
+        self, rotation: NDArray[np.float64], origin: NDArray[np.float64], half: NDArray[np.float64]
+    ) -> None:
+        self.rotation, self.origin = rotation, origin
         self.half = np.asarray(half, dtype=np.float64)
+
+    def framed(self, rotation: NDArray[np.float64], origin: NDArray[np.float64]) -> _Solid:
+        # (R x + o - origin) @ Rb = (x - (origin - o) @ R) @ (R^T Rb)
+        return _Box(rotation.T @ self.rotation, (self.origin - origin) @ rotation, self.half)
 
     def __call__(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
         q = np.abs((p - self.origin) @ self.rotation) - self.half
-        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+        out = np.maximum(q, 0.0)
+        outside = np.sqrt((out * out).sum(axis=1))  # np.linalg.norm's sum, fewer calls
         return outside + np.minimum(q.max(axis=1), 0.0)
 
+    def inside(self, p: NDArray[np.float64]) -> NDArray[np.bool_]:
+        # The distance is < 0 exactly where every axis is within its half extent.
+        return (np.abs((p - self.origin) @ self.rotation) - self.half).max(axis=1) < 0.0
+
     def leave(self, p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
-        # In the box's frame, each pair of faces is left where q + a e = +-half along that axis;
-        # the point leaves the box at the first of the three.
+        # In the box's frame, each pair of faces is left where q + a e = +-half along that axis
+        # (the far face of each pair: +half moving up it, -half moving down); the point leaves
+        # the box at the first of the three; never along an axis it does not move along.
         q, e = (p - self.origin) @ self.rotation, d @ self.rotation
-        with np.errstate(divide="ignore", invalid="ignore"):
-            far = np.where(e > 0, (self.half - q) / e, (-self.half - q) / e)
-        far = np.where(np.abs(e) < 1e-300, np.inf, far)
+        far = np.full(q.shape, np.inf)
+        np.divide(np.where(e > 0, self.half, -self.half) - q, e, out=far, where=np.abs(e) >= 1e-300)
         return np.maximum(far.min(axis=1), 0.0)
 
 
 class _Below(_Solid):
-    def __init__(self, height: float) -> None:
+    """The half-space p . up < height (`up` unit): the ground's, below y = height, in the
+    world; a tilted one in a body's frame."""
+
+    def __init__(self, height: float, up: NDArray[np.float64] | None = None) -> None:
         self.height = float(height)
+        self.up = np.array([0.0, 1.0, 0.0]) if up is None else np.asarray(up, dtype=np.float64)
 
     def __call__(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
-        return p[:, 1] - self.height
+        return p @ self.up - self.height
+
+    def framed(self, rotation: NDArray[np.float64], origin: NDArray[np.float64]) -> _Solid:
+        # (R x + o) . up = x . (R^T up) + o . up
+        return _Below(self.height - float(origin @ self.up), self.up @ rotation)
 
     def leave(self, p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
-        rise = d[:, 1]
+        rise = d @ self.up
         with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(rise > 0, np.maximum((self.height - p[:, 1]) / rise, 0.0), np.inf)
+            return np.where(rise > 0, np.maximum((self.height - p @ self.up) / rise, 0.0), np.inf)
 
 
 def sphere_field(centre: NDArray[np.float64], radius: float) -> Field:
@@ -151,7 +187,7 @@ def capsule_field(a: NDArray[np.float64], b: NDArray[np.float64], radius: float)
 def box_field(model: NDArray[np.float64], half: NDArray[np.float64]) -> Field:
     """Signed distance to a box of half extents `half` about the origin of `model` (world from
     local, a rotation and a translation)."""
-    return _Box(model, half)
+    return _Box(model[:3, :3], model[:3, 3], half)
 
 
 def ground_field(height: float) -> Field:
@@ -198,6 +234,18 @@ def shape_field(shape: object, model: NDArray[np.float64]) -> Field | None:
     return None
 
 
+def _rigid(linear: NDArray[np.float64]) -> bool:
+    """Whether a pose's linear part is a rotation (orthonormal and not mirrored, to 1e-9); on
+    Python floats (nine numbers)."""
+    m = linear.tolist()
+    for r in range(3):
+        for c in range(r, 3):
+            dot = m[0][r] * m[0][c] + m[1][r] * m[1][c] + m[2][r] * m[2][c]
+            if abs(dot - (1.0 if r == c else 0.0)) >= 1e-9:
+                return False
+    return determinant3(linear) > 0.0
+
+
 @dataclass
 class DentProxy:
     """A dynamic body's surface points and how far each has been pressed in (metres)."""
@@ -220,6 +268,9 @@ class DentProxy:
     def __post_init__(self) -> None:
         self.inward = np.zeros(len(self.points))
         self.shaped = np.zeros(len(self.points))
+        length = np.linalg.norm(self.normals, axis=1, keepdims=True)
+        #: `normals` of length 1 (the way a press moves each point).
+        self._unit = self.normals / np.maximum(length, 1e-30)
 
     @classmethod
     def of(cls, mesh: Mesh) -> DentProxy:
@@ -253,30 +304,49 @@ class DentProxy:
         inwards along its normal until it leaves it, at most `max_depth` or the body's thickness
         under it; dents only deepen."""
         linear, origin = model[:3, :3], model[:3, 3]
-        world = self.points @ linear.T + origin
+        shift = np.asarray(direction, dtype=np.float64) * advance
+        if isinstance(tool, _Solid) and _rigid(linear):
+            # In the body's frame: its points and normals as they are, the tool and the shift
+            # turned into it (a rigid pose keeps distances and exits), not every point moved
+            # into the world.
+            moved = self.points - shift @ linear
+            self._pressed(moved, self._unit, tool.framed(linear, origin), max_depth)
+            return
         normal = self.normals @ linear.T
         normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
-        shift = np.asarray(direction, dtype=np.float64) * advance
+        self._pressed(self.points @ linear.T + origin - shift, normal, tool, max_depth)
 
-        def inside(a: NDArray[np.float64], k: NDArray[np.int64]) -> NDArray[np.bool_]:
-            return tool(world[k] - a[:, None] * normal[k] - shift) < 0.0
-
-        k = np.nonzero(inside(self.inward, np.arange(len(self.points))))[0]
+    def _pressed(
+        self,
+        moved: NDArray[np.float64],
+        normal: NDArray[np.float64],
+        tool: Field,
+        max_depth: float,
+    ) -> None:
+        """`press` in one frame: `moved` the points less the tool's advance, `normal` their
+        unit normals, `tool` the solid, all in that frame."""
+        start = moved - self.inward[:, None] * normal
+        k = np.nonzero(tool.inside(start) if isinstance(tool, _Solid) else tool(start) < 0.0)[0]
         if len(k) == 0:
             return
         unknown = k[np.isnan(self.thickness[k])]
         if len(unknown) and self.source is not None:
             self.thickness[unknown] = vertex_thickness(self.source, unknown)
         bound = np.minimum(max_depth, self.thickness[k])
+        p, n = moved[k], normal[k]
         if isinstance(tool, _Solid):  # convex, in closed form: where the line leaves it
-            leaves = tool.leave(world[k] - shift, -normal[k])
+            leaves = tool.leave(p, -n)
             self.inward[k] = np.maximum(self.inward[k], np.minimum(leaves, bound))
             return
+
+        def inside(a: NDArray[np.float64]) -> NDArray[np.bool_]:
+            return tool(p - a[:, None] * n) < 0.0
+
         lo, hi = self.inward[k].copy(), bound.copy()
-        still = inside(hi, k)  # past the bound and still inside: the bound
+        still = inside(hi)  # past the bound and still inside: the bound
         for _ in range(_STEPS):
             mid = 0.5 * (lo + hi)
-            deeper = inside(mid, k)
+            deeper = inside(mid)
             lo = np.where(deeper, mid, lo)
             hi = np.where(deeper, hi, mid)
         self.inward[k] = np.maximum(self.inward[k], np.where(still, bound, hi))
