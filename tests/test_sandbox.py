@@ -427,6 +427,114 @@ def test_a_body_s_first_hit_makes_no_vertex_array_or_index_stream(gl, scene, dro
         sim.close()
 
 
+@pytest.mark.parametrize(
+    ("scene", "drops"),
+    [
+        # Balls onto the plates, the steel block and each other: spheres (their chart lists, gutters
+        # and texel rectangles, drawn as quads as tools), plates and a box as targets and tools.
+        (
+            "ball_drop.toml",
+            [(0.0, 0.1, 0.0), (-0.25, 0.22, -0.75), (0.3, 0.2, 0.3), (0.3, 0.3, 0.3)],
+        ),
+        # Onto crates: a loaded mesh that may hide part of itself (pass 2).
+        ("crates.toml", [(-0.12, 0.35, 0.0), (0.1, 0.4, 0.05)]),
+    ],
+    ids=["ball-drop", "crates"],
+)
+def test_every_pass_a_hit_draws_a_body_with_is_one_the_body_was_made_and_warmed_for(
+    gl, scene, drops
+):
+    """Carver.prepare (the vertex arrays and index streams) and Carver.warm (the shader
+    variants) make what a body's hits will draw from one list of the passes that may draw it
+    (`Carver._body_draws`). Every draw of the hits here is checked against that list: the pass
+    drawn, and the body it draws, found by the map it samples (a gather reads its target's mask,
+    a normal rebuild its target's heights, pass 2 its target's and pass 3 its tool's)."""
+    from contextlib import contextmanager
+
+    from dentdemo.app.simulation import Simulation
+    from dentdemo.carve import carver as carver_module
+    from dentdemo.carve.texel_passes import RECT
+
+    lib = load_materials()
+    sim = Simulation(gl, load_scene(ROOT / "assets" / "scenes" / scene, lib), lib)
+    drawn: list[tuple[object, object]] = []  # (pass, the sampled texture)
+    real = carver_module.shared_batch
+
+    @contextmanager
+    def recording(ctx, fbo, state):  # noqa: ANN001, ANN202 - shared_batch's own
+        with real(ctx, fbo, state) as one:
+
+            def record(pass_, viewport, draw, textures=(), *rest, **named):  # noqa: ANN001, ANN202
+                drawn.append((pass_, textures))
+                return one(pass_, viewport, draw, textures, *rest, **named)
+
+            yield record
+
+    carver_module.shared_batch = recording
+    try:
+        for k, drop in enumerate(drops):
+            # 512 texels a metre, as the bench's balls: some hits' texels are drawn as rectangles.
+            sim.drop_ball(drop, (0.0, -3.0, 0.0), radius=0.015 + 0.01 * k, texels_per_metre=512)
+        for _ in range(60):
+            sim.step()
+    finally:
+        carver_module.shared_batch = real
+    try:
+        assert sim.stats.hits >= len(drops)
+        by_texture = {}
+        for body in sim.bodies.values():
+            by_texture[id(body.maps.height)] = by_texture[id(body.maps.mask)] = body
+        kinds = set()
+        for pass_, textures in drawn:
+            body = next(by_texture[id(t)] for t in textures if id(t) in by_texture)
+            listed = {p for _, p, _ in sim.carver._body_draws(body.mesh)}
+            assert pass_ in listed, (pass_.name, body.spec.id)
+            kinds.add((pass_.name, body.mesh.name))
+        names = {name for name, _ in kinds}
+        assert {"peel", "gather", "normals"} <= names and len(kinds) >= 5, kinds
+        rects = {sim.carver._texel[key] for key in (("gather", RECT, True, True, True),)}
+        assert scene != "ball_drop.toml" or any(p in rects for p, _ in drawn)  # texel rectangles
+        if scene == "crates.toml":
+            assert "address" in names  # a loaded mesh that may hide part of itself
+    finally:
+        sim.close()
+
+
+def test_warming_a_body_changes_no_texel_and_gives_the_state_back(gl):
+    """Carver.warm draws every pass that may draw a body into an empty viewport: the body's
+    height and normal maps, dented before, are the same bytes after a carver that has warmed
+    nothing yet warms every variant for them, and the host's GL state is as it was."""
+    from dentdemo.app.simulation import Simulation
+    from dentdemo.carve.carver import Carver
+    from test_host_state import cache_mismatches, driver_state, host_read
+
+    lib = load_materials()
+    sim = Simulation(gl, load_scene(BALL_DROP, lib), lib)
+    fresh = Carver(sim.gl)
+    try:
+        ball = sim.drop_ball((0.0, 0.1, 0.0), velocity=(0.0, -3.0, 0.0), radius=0.02)
+        for _ in range(40):
+            sim.step()
+        assert sim.dents.get(ball) is not None  # a dented sphere, and a dented plate under it
+        bodies = [sim.bodies[ball], *(b for b in sim.bodies.values() if b.spec.id != ball)]
+        before = [(host_read(b.maps.height), host_read(b.maps.normal)) for b in bodies]
+        assert any(h.view(np.float32).min() < 0 for h, _ in before[:1])
+        ctx = sim.gl.ctx
+        ctx.viewport = (3, 4, 50, 60)
+        ctx.enable(ctx.BLEND | ctx.DEPTH_TEST)
+        state = driver_state()
+        for body in bodies:
+            fresh.warm(body.gpu_mesh, body.maps)
+        assert fresh._warmed  # it warmed some kinds of body, each once
+        assert driver_state() == state and not cache_mismatches(ctx)
+        after = [(host_read(b.maps.height), host_read(b.maps.normal)) for b in bodies]
+        for (h0, n0), (h1, n1), body in zip(before, after, bodies, strict=True):
+            assert np.array_equal(h0, h1) and np.array_equal(n0, n1), body.spec.id
+    finally:
+        fresh.release()
+        sim.close()
+
+
 def test_the_address_map_view_draws_pass_2_for_convex_targets_too(gl):
     """Pass 2 is left out for built-in targets (docs/carve.md), but the address-map view shows
     it: with the view on, the last carve's tile holds the surface's (u, v) and view depths."""

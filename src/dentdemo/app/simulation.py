@@ -149,6 +149,7 @@ class Simulation:
         if spec.dentable and spec.bump_map:
             start = load_height_png(Path(spec.bump_map), size, spec.bump_height)
         maps = create_maps(self.gl, gpu, size, spec.material.max_dent_depth, start)
+        self.carver.warm(gpu, maps)  # its shader variants compiled now, not in a carve's frame
         body = SimBody(spec, mesh, gpu, maps)
         self.bodies[spec.id] = body
         return body

@@ -331,6 +331,8 @@ class Carver:
         self.keep_host_state = True
         #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
         self._posed: dict[tuple[int, bytes], tuple[Mesh, dict[str, object]]] = {}
+        #: The kinds of body and map whose shader variants `warm` compiled.
+        self._warmed: set[tuple] = set()
 
     # -- public --------------------------------------------------------------------------------
     def carve(
@@ -420,17 +422,69 @@ class Carver:
         not drawn as one quad). For a body being made (app/simulation.py): in the bench's
         sandbox, whose balls are all of other sizes, first hits made 355 vertex arrays at about
         45 us each, 0.03 ms of a hit's carve."""
+        for _, pass_, subset in self._body_draws(gpu_mesh.mesh):
+            if subset:
+                gpu_mesh.vao(pass_.program, subset)
+
+    def warm(self, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None:
+        """Compile now the shader variants that this carver's first draws of a body with these
+        maps would compile inside a carve: llvmpipe builds a variant of a program for each state
+        it is drawn under (the formats and filters of what it samples, whether the map's sides
+        are powers of two, ...) when first drawn so, 1-4 ms each. Each program that may draw the
+        body (`_body_draws`) is drawn once, under its pass's state and with the textures it
+        samples then, into an empty viewport: no fragment, no texel changed. Once per kind of
+        body and of map (a body like one warmed before draws nothing); the host's GL state is
+        left as it was."""
         mesh = gpu_mesh.mesh
+        w, h = maps.size
+        key = (
+            is_swept(mesh),
+            mesh.bound is not None,
+            quad_kind(mesh) if self.swept_quads else 0,
+            bool(cube_grid(mesh)),
+            mesh.charts_fill_map(),
+            w & (w - 1) == 0,
+            h & (h - 1) == 0,
+        )
+        if key in self._warmed:
+            return
+        self._warmed.add(key)
+        scratch = self.scratch
+        # Each pass kind's framebuffer and the textures it samples, as its draws bind them.
+        targets = {
+            "gather": (maps.height_fbo, (scratch.address, scratch.tool_depth, maps.mask)),
+            "normals": (maps.normal_fbo, (maps.height, maps.mask)),
+            "address": (scratch.address_fbo, (maps.height, scratch.tool_depth)),
+            "peel": (scratch.peel_fbo, (maps.height,)),
+        }
+        first = np.zeros(1, dtype=np.int64)  # any triangle: the empty viewport drops it
+        with preserved(self.gl.ctx):
+            for name, pass_, subset in self._body_draws(mesh):
+                fbo, textures = targets[name]
+                draw = gpu_mesh.drawer(first, subset) if subset else self._draw_quad
+                with shared_batch(self.gl.ctx, fbo, pass_.state) as one:
+                    one(pass_, (0, 0, 0, 0), draw, textures)
+
+    def _body_draws(self, mesh: Mesh) -> Iterator[tuple[str, Pass, str]]:
+        """The passes that may draw a body of `mesh`, as the carve picks their variants: (pass
+        name, pass, the index stream its triangle lists go through, or "" for a quad). Passes 4
+        and 5 as a target (its charts' triangles, the gutter's unless its charts fill the map,
+        a built-in sphere's texel rectangles); pass 2 where it may hide part of itself (or
+        every target, with `address_every_target`); pass 3 as a tool (one quad for a sphere or
+        capsule with `swept_quads`)."""
         swept, convex = is_swept(mesh), mesh.bound is not None
         for kind in (CHART,) if mesh.charts_fill_map() else (CHART, GUTTER):
             subset = f"texels{kind}"
             for oblique in (True,) if swept else (False, True):  # _oblique
-                gpu_mesh.vao(self._texel["gather", kind, swept, oblique, convex].program, subset)
-            gpu_mesh.vao(self._texel["normals", kind, False].program, subset)
-        if self.address_every_target or not convex:
-            gpu_mesh.vao(self._surface["address", swept, 0].program, "address")
-        if not (self.swept_quads and quad_kind(mesh)):
-            gpu_mesh.vao(self._surface["peel", swept, 0].program, "peel")
+                yield "gather", self._texel["gather", kind, swept, oblique, convex], subset
+            yield "normals", self._texel["normals", kind, False], subset
+        if cube_grid(mesh):  # _texel_draws' rectangles
+            yield "gather", self._texel["gather", RECT, True, True, True], ""
+            yield "normals", self._texel["normals", RECT, False], ""
+        quad = quad_kind(mesh) if self.swept_quads else 0
+        surfaces = ["peel"] + (["address"] if self.address_every_target or not convex else [])
+        for name in surfaces:  # _camera_passes
+            yield name, self._surface[name, swept, quad], "" if quad else name
 
     def measure_passes(
         self,
