@@ -236,6 +236,49 @@ def test_a_released_surface_or_carver_says_so(gl):
     ball.release()
 
 
+def test_prepare_checks_its_surfaces(gl):
+    plate = dentdemo.DentableSurface(gl.ctx, PLATE, 64)
+    carver = dentdemo.Carver(gl.ctx)
+    _raises(lambda: carver.prepare(plate, "ball"), "surfaces[1]", "DentableSurface", "str")
+    other = create_headless()
+    try:
+        foreign = dentdemo.DentableSurface(other.ctx, PLATE, 64)
+        gl.make_current()
+        _raises(lambda: carver.prepare(foreign), "surfaces[0]", "another moderngl context")
+        plate.release()
+        _raises(lambda: carver.prepare(plate), "prepare(): ", "was released")
+        carver.release()
+        _raises(lambda: carver.prepare(), "this Carver was released")
+    finally:
+        other.release()
+        gl.make_current()
+
+
+def test_a_prepared_surface_s_first_press_makes_nothing_and_dents_the_same(gl):
+    """`Carver.prepare` makes the vertex arrays and index streams a surface's first presses
+    would make, and changes no texel: a prepared pair's first press makes none, and dents both
+    surfaces to the same bytes as the same press on a pair that was not prepared."""
+    pairs = [(dentdemo.DentableSurface(gl.ctx, PLATE, 64), _ball_above(gl.ctx)) for _ in range(2)]
+    carver = dentdemo.Carver(gl.ctx)
+    try:
+        prepared = pairs[0]
+        carver.prepare(*prepared)
+        assert not any(s.heights().any() for s in prepared)  # no texel written
+        counts = [(len(s._gpu._vaos), len(s._gpu._subsets)) for s in prepared]
+        assert all(vaos > 1 and streams > 0 for vaos, streams in counts)
+        for plate, ball in pairs:
+            assert carver.press(plate, ball, DOWN, 0.004, 0.002)
+        assert [(len(s._gpu._vaos), len(s._gpu._subsets)) for s in prepared] == counts
+        (plate0, ball0), (plate1, ball1) = pairs
+        assert plate0.heights().min() < -0.003 and ball0.heights().min() < -0.001
+        assert np.array_equal(plate0.heights(), plate1.heights())
+        assert np.array_equal(ball0.heights(), ball1.heights())
+    finally:
+        carver.release()
+        for surface in (s for pair in pairs for s in pair):
+            surface.release()
+
+
 def test_a_trimesh_keeps_its_uvs_maps_back_and_takes_a_dent(gl):
     """A host's own trimesh.Trimesh with a unique atlas: taken as is (no re-atlas, no warning),
     every vertex names the trimesh vertex it copies, and a 3 mm press leaves 3 mm."""

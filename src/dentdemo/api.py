@@ -423,6 +423,30 @@ class Carver:
         log = self._live().undo_log
         return log is not None and log.undo()
 
+    def prepare(self, *surfaces: DentableSurface) -> None:
+        """Make now what the first presses of `surfaces` would make inside them: the vertex
+        arrays and index streams of every pass that may draw each one, and the shader variants
+        the driver compiles when a pass first draws under a new state (on llvmpipe 1-4 ms each,
+        several at a surface's first presses). For a host's loading screen, not its frame loop;
+        no texel changes, and the host's GL state is left as it was."""
+        carver = self._live()
+        ready: list[tuple[GpuMesh, SurfaceMaps]] = []  # every surface checked before any GL work
+        for index, surface in enumerate(surfaces):
+            if not isinstance(surface, DentableSurface):
+                kind = type(surface).__name__
+                raise ArgumentError(f"surfaces[{index}] must be a DentableSurface, got {kind}")
+            maps = surface._live("prepare()")
+            if surface._gl.ctx is not self._ctx:
+                raise ArgumentError(
+                    f"surfaces[{index}] was made in another moderngl context than this Carver"
+                )
+            assert surface._gpu is not None
+            ready.append((surface._gpu, maps))
+        for gpu_mesh, maps in ready:
+            with preserved(self._ctx):
+                carver.prepare(gpu_mesh)
+            carver.warm(gpu_mesh, maps)
+
     def repair(self, surface: DentableSurface) -> None:
         """Give `surface` back the maps it was made with: heights 0 (or those last given to
         `set_heights` / `set_bump_map`) and their normals, on the GPU. Its part of the undo
