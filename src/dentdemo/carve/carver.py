@@ -331,7 +331,7 @@ class Carver:
         self.keep_host_state = True
         #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
         self._posed: dict[tuple[int, bytes], tuple[Mesh, dict[str, object]]] = {}
-        #: The kinds of body and map whose shader variants `warm` compiled.
+        #: The passes and kinds of map whose shader variants `warm` compiled.
         self._warmed: set[tuple] = set()
 
     # -- public --------------------------------------------------------------------------------
@@ -435,17 +435,11 @@ class Carver:
         samples then, into an empty viewport: no fragment, no texel changed. Once per kind of
         body and of map (a body like one warmed before draws nothing); the host's GL state is
         left as it was."""
-        mesh = gpu_mesh.mesh
+        draws = list(self._body_draws(gpu_mesh.mesh))
         w, h = maps.size
-        key = (
-            is_swept(mesh),
-            mesh.bound is not None,
-            quad_kind(mesh) if self.swept_quads else 0,
-            bool(cube_grid(mesh)),
-            mesh.charts_fill_map(),
-            w & (w - 1) == 0,
-            h & (h - 1) == 0,
-        )
+        # The passes drawn, and what of the maps they sample differs between bodies (whether
+        # their sides are powers of two): the same again compiles nothing new.
+        key = (tuple(id(pass_) for _, pass_, _ in draws), w & (w - 1) == 0, h & (h - 1) == 0)
         if key in self._warmed:
             return
         self._warmed.add(key)
@@ -459,7 +453,7 @@ class Carver:
         }
         first = np.zeros(1, dtype=np.int64)  # any triangle: the empty viewport drops it
         with preserved(self.gl.ctx):
-            for name, pass_, subset in self._body_draws(mesh):
+            for name, pass_, subset in draws:
                 fbo, textures = targets[name]
                 draw = gpu_mesh.drawer(first, subset) if subset else self._draw_quad
                 with shared_batch(self.gl.ctx, fbo, pass_.state) as one:
