@@ -577,6 +577,54 @@ def materials_cases() -> list[Case]:
         ("calibration_unknown", "[calibration]\nfudge = 2\n", (m, "fudge")),
         ("calibration_negative", "[calibration]\nk_per_compliance = -1\n", (m, "k_per_compliance")),
         ("material_not_table", "[materials]\ntin = 5\n", (m, "tin")),
+        # Issue 46 item 1: values that passed and then aborted ODE or overflowed numpy; each
+        # refusal gives the key's range.
+        (
+            "density_1e200",
+            tin("density_kg_m3 = 7300", "density_kg_m3 = 1e200"),
+            (m, "density_kg_m3", "1e+200", "range [0.1, 100000] kg/m^3"),
+        ),
+        (
+            "density_1e308",
+            tin("density_kg_m3 = 7300", "density_kg_m3 = 1e308"),
+            (m, "density_kg_m3", "1e+308", "range [0.1, 100000]"),
+        ),
+        (
+            "density_tiny",
+            tin("density_kg_m3 = 7300", "density_kg_m3 = 1e-300"),
+            (m, "density_kg_m3", "range [0.1, 100000]"),
+        ),
+        (
+            "k_1e308",
+            MATERIAL_OK + "k_m_per_Ns = 1e308\n",
+            (m, "k_m_per_Ns", "1e+308", "range [0, 1000]"),
+        ),
+        (
+            "youngs_1e300",
+            tin("youngs_modulus_Pa = 50e9", "youngs_modulus_Pa = 1e300"),
+            (m, "youngs_modulus_Pa", "range [10000, 1e+13]"),
+        ),
+        (
+            "plastic_tiny_derived_k",
+            tin("plastic_modulus_Pa = 0.5e9", "plastic_modulus_Pa = 1e-300"),
+            (m, "plastic_modulus_Pa", "range [1000, 1e+13)"),
+        ),
+        (
+            "calibration_derives_huge_k",
+            "[calibration]\nk_per_compliance = 1e10\n"
+            + tin("plastic_modulus_Pa = 0.5e9", "plastic_modulus_Pa = 1e6"),
+            (m, "plastic_modulus_Pa", "gives k", "range [0, 1000]"),
+        ),
+        (
+            "calibration_1e308",
+            "[calibration]\nk_per_compliance = 1e308\n",
+            (m, "k_per_compliance", "range [0, 1e+10]"),
+        ),
+        (
+            "y_unit_1e308",
+            "[calibration]\nY_unit_Ns = 1e308\n",
+            (m, "Y_unit_Ns", "range (0, 1e+06]"),
+        ),
     ]
     cases = [
         Case(f"materials-{name}", "materials", argv, {m: text}, reject=frag)

@@ -162,7 +162,8 @@ def test_an_invalid_edit_is_the_start_up_error_and_keeps_the_last_good_values(gl
         user.write_text(USER.format(density=7850, restitution=1.5))
         _, lines = _settle(app, 0.0)
         expected = f"{user}: [materials.steel] key 'restitution' = 1.5: must be < 1"
-        assert lines == [expected]
+        assert len(lines) == 1 and lines[0].startswith(expected + " (range [0, 1)")
+        expected = lines[0]
         start_up = subprocess.run(
             [sys.executable, "-m", "dentdemo", "materials", "--materials", str(user)],
             capture_output=True,
@@ -179,6 +180,26 @@ def test_an_invalid_edit_is_the_start_up_error_and_keeps_the_last_good_values(gl
         _, lines = _settle(app, 5.0)
         assert lines == [f"dentdemo: reloaded {user} (2 materials)"]
         assert app.sim.bodies["ball"].spec.material.restitution == 0.5
+    finally:
+        app.close()
+
+
+def test_a_density_ode_cannot_hold_is_refused_on_reload_and_the_run_goes_on(gl, tmp_path):
+    """Issue 46 item 1: 1e200 kg/m^3 passed the validator, printed "reloaded" and then aborted
+    the process inside ODE (dNormalize4) with the session's damage. Now it is the start-up
+    error with the key's range, and the last good density stays in use."""
+    user, scene_path = _files(tmp_path)
+    app = _app(gl, user, scene_path)
+    try:
+        user.write_text(USER.format(density=1e200, restitution=0.6))
+        _, lines = _settle(app, 0.0)
+        assert len(lines) == 1, lines
+        assert "key 'density_kg_m3' = 1e+200: must be <= 100000" in lines[0]
+        assert "range [0.1, 100000] kg/m^3" in lines[0]
+        assert app.sim.bodies["ball"].spec.material.density == 7850
+        for _ in range(60):
+            app.sim.step()
+        assert math.isfinite(app.sim.world.snapshot().bodies["ball"][0][1])
     finally:
         app.close()
 
@@ -307,9 +328,11 @@ def test_real_window_reloads_and_reports_a_bad_edit(xvfb, tmp_path):
         wait_for("dentdemo: watching")
         user.write_text(USER.format(density=7850, restitution=0.3))
         assert wait_for("dentdemo: reloaded") == f"dentdemo: reloaded {user} (2 materials)"
-        user.write_text(USER.format(density=7850, restitution=1.5))
-        assert wait_for(str(user)) == (
-            f"{user}: [materials.steel] key 'restitution' = 1.5: must be < 1"
+        # Issue 46 item 1: this density printed "reloaded", then aborted the demo inside ODE.
+        user.write_text(USER.format(density=1e200, restitution=0.3))
+        assert wait_for(str(user)).startswith(
+            f"{user}: [materials.steel] key 'density_kg_m3' = 1e+200: must be <= 100000 "
+            "(range [0.1, 100000] kg/m^3"
         )
         rest = proc.stderr.read()
         assert proc.wait(timeout=120) == 0, seen + [rest]

@@ -60,7 +60,7 @@ BAD_CASES = [
     ),
     (
         GOOD.replace("density_kg_m3 = 7300", "density_kg_m3 = 0"),
-        "key 'density_kg_m3' = 0: must be > 0",
+        "key 'density_kg_m3' = 0: must be >= 0.1 (range [0.1, 100000] kg/m^3",
     ),
     (
         GOOD.replace("density_kg_m3 = 7300", "density_kg_m3 = nan"),

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from dentdemo.errors import ConfigError
-from dentdemo.model.materials_keys import NUMBER_KEYS
+from dentdemo.model.materials_keys import CALIBRATION_NUMBERS, NUMBER_KEYS
 from dentdemo.model.validate import TableReader, load_toml
 from dentdemo.resources import assets_dir
 
@@ -177,10 +177,8 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
 def _parse_calibration(source: str, table: Any) -> Calibration:
     reader = TableReader(source, "calibration", table)
     calibration = Calibration(
-        k_per_compliance=reader.number(
-            "k_per_compliance", Calibration.k_per_compliance, min_value=0.0
-        ),
-        Y_unit=reader.number("Y_unit_Ns", Calibration.Y_unit, min_value=0.0, min_inclusive=False),
+        k_per_compliance=CALIBRATION_NUMBERS["k_per_compliance"].read(reader),
+        Y_unit=CALIBRATION_NUMBERS["Y_unit_Ns"].read(reader),
     )
     reader.finish()
     return calibration
@@ -229,8 +227,13 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
     else:
         k = derived_k(youngs, plastic, calibration.k_per_compliance)
         explicit = False
-    if not math.isfinite(k):
-        raise reader.fail("k_m_per_Ns", "derived k is not finite")
+    k_range = NUMBER_KEYS["k_m_per_Ns"]
+    if not explicit and not (math.isfinite(k) and k <= (k_range.high or math.inf)):
+        raise reader.fail(
+            "plastic_modulus_Pa",
+            f"gives k = k_per_compliance (1/P - 1/E) = {k:.3g} m/(N*s), outside k_m_per_Ns's "
+            f"{k_range.explained()}",
+        )
     source_text = reader.string("source", "")
     default = Appearance()
     colour = reader.vec3("base_colour", default.base_colour)
