@@ -13,6 +13,27 @@ from dentdemo.carve.carver import Carver
 from dentdemo.carve.cpu_reference import CpuReference
 
 
+def test_gl_call_count_counts_each_call_once_and_only_while_open(gl):
+    """Three calls of three kinds (a moderngl method, a property write, a raw entry point)
+    count three; nothing counts once the count is closed."""
+    from dentdemo.bench.glcount import counting
+    from dentdemo.gl.library import gl_library
+
+    texture = gl.ctx.texture((4, 4), 1)
+    with counting() as calls:
+        calls.reset()
+        texture.use(0)
+        gl.ctx.viewport = (0, 0, 4, 4)
+        gl_library().glFlush()
+        assert calls.count == 3
+        texture.filter = (0x2600, 0x2600)  # GL_NEAREST
+        assert calls.count == 4
+    texture.use(0)
+    gl_library().glFlush()
+    assert calls.count == 4
+    texture.release()
+
+
 def test_bench_tiny_json_schema(gl, tmp_path):
     out, plot = tmp_path / "bench.json", tmp_path / "bench.png"
     result = dentdemo(
@@ -54,6 +75,8 @@ def test_bench_tiny_json_schema(gl, tmp_path):
         assert b["cpu_ms_per_hit"] is None or b["cpu_ms_per_hit"] > 0
         parts = b["plan_ms_per_hit"] + b["submit_ms_per_hit"] + b["wait_ms_per_hit"]
         assert 0 < parts
+        # A batch's GL calls, counted in a process of their own: a burst makes some.
+        assert isinstance(b["gl_calls_per_batch"], int) and b["gl_calls_per_batch"] > 0
     assert "batched ms/hit" in result.stdout
     assert [(d["plate_side_m"], d["map_size"]) for d in data["same_dent"]] == [
         (0.25, 128),

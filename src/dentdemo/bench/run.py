@@ -4,6 +4,7 @@ pass, sandbox frame times against scene size, and the memory of the maps."""
 from __future__ import annotations
 
 import math
+import multiprocessing
 import os
 import platform
 import statistics
@@ -16,6 +17,7 @@ import numpy as np
 
 from dentdemo import __version__, interrupt
 from dentdemo.app.press import make_setup, shape_from_args
+from dentdemo.bench.glcount import counting
 from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import (
@@ -160,6 +162,7 @@ def burst(
     """ms per hit, amortised, of bursts of the bench's press: batched on the GPU (split into
     planning, submission and the wait for the GPU), the same hits one by one, and the CPU path
     one by one. Runs alternate within every repetition."""
+    calls = gl_calls_per_batch(sizes)
     carver = Carver(gl)
     finish = gl.ctx.finish
     rows = []
@@ -202,7 +205,7 @@ def burst(
 
                 runs.append(cpu)
             medians = interleaved_medians(runs, finish, reps)
-            row = {
+            row: dict[str, object] = {
                 "hits": hits,
                 "map_size": size,
                 "gpu_ms_per_hit": medians[0] / hits,
@@ -211,6 +214,7 @@ def burst(
                 "plan_ms_per_hit": statistics.median(split["plan"]) / hits,
                 "submit_ms_per_hit": statistics.median(split["submit"]) / hits,
                 "wait_ms_per_hit": statistics.median(split["wait"]) / hits,
+                "gl_calls_per_batch": calls.get((size, hits)),
             }
             rows.append(row)
         _release(setup)
@@ -219,6 +223,34 @@ def burst(
         tick()
     carver.release()
     return rows
+
+
+def gl_calls_per_batch(sizes: list[int]) -> dict[tuple[int, int], int]:
+    """GL calls (`bench.glcount`) of one batched burst of each size in BURSTS at each map size
+    (planned and carved: `plan_many`, `carve_hits`), counted in a process of their own, whose
+    context is made inside the count (the timed one is left as it is)."""
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        found = pool.apply(_count_bursts, (sizes,))
+    return {(size, hits): count for size, hits, count in found}
+
+
+def _count_bursts(sizes: list[int]) -> list[tuple[int, int, int]]:
+    out = []
+    with counting() as calls:
+        gl = create_headless()
+        carver = Carver(gl)
+        for size in sizes:
+            setup = _press_setup(gl, size)
+            for hits in BURSTS:
+                presses = _burst_presses(setup, hits)
+                for _ in range(2):  # the first makes the vertex arrays, compiles the variants
+                    calls.reset()
+                    carver.carve_hits(carver.plan_many(presses))
+                out.append((size, hits, calls.count))
+            _release(setup)
+        carver.release()
+        gl.release()
+    return out
 
 
 def _release(setup) -> None:
