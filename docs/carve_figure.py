@@ -13,8 +13,9 @@ from PIL import Image, ImageDraw
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
 from dentdemo.carve.shapes import Shape
-from dentdemo.carve.surface import GpuMesh, create_maps
+from dentdemo.carve.surface import create_maps
 from dentdemo.gl.context import create_headless
+from dentdemo.gpu.mesh import GpuMesh
 
 PANEL = 256
 

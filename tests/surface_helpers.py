@@ -8,7 +8,8 @@ import math
 import numpy as np
 
 from dentdemo.carve.carver import CarveBody
-from dentdemo.carve.surface import GpuMesh, create_maps
+from dentdemo.carve.surface import create_maps
+from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.loader import reatlas
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.normals import smooth_normals

@@ -496,8 +496,9 @@ def test_a_new_or_repaired_body_is_flat_without_a_pass_over_its_map(gl, size):
     and every normal texel the flat tangent-space normal (0, 0, 1), stored as
     (0.5, 0.5, 1, 1) * 255 rounded: (128, 128, 255, 255); the same bytes pass 5 over the whole
     map gives from zero heights, for each built-in shape and a loaded mesh."""
-    from dentdemo.carve.surface import GpuMesh, create_maps, rebuild_all_normals
+    from dentdemo.carve.surface import create_maps, rebuild_all_normals
     from dentdemo.carve.undo import restore_pristine
+    from dentdemo.gpu.mesh import GpuMesh
     from dentdemo.mesh.loader import load_mesh
     from dentdemo.mesh.shapes import shape_mesh
     from dentdemo.model.shapes import Cylinder

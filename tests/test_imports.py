@@ -1,12 +1,16 @@
-"""The package's import graph has no cycles: between modules, and between the layers (top-level
-packages), counting imports made inside functions too."""
+"""The package's import graph has no cycles between modules, counting imports made inside
+functions too; docs/design.md's layer table is the layers contract that `lint-imports` checks
+(pyproject.toml)."""
 
 from __future__ import annotations
 
 import ast
+import re
+import tomllib
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parents[1] / "src"
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
 
 
 def _module_name(path: Path) -> str:
@@ -92,22 +96,6 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
-def layer_graph(graph: dict[str, set[str]]) -> dict[str, set[str]]:
-    """dentdemo.<layer> -> the layers it imports (the package root's own modules are layers)."""
-
-    def layer(module: str) -> str:
-        return ".".join(module.split(".")[:2])
-
-    out: dict[str, set[str]] = {}
-    for source, targets in graph.items():
-        if source == "dentdemo":
-            continue
-        for target in targets:
-            if target != "dentdemo" and layer(target) != layer(source):
-                out.setdefault(layer(source), set()).add(layer(target))
-    return out
-
-
 def test_the_cycle_finder_finds_a_cycle():
     graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
     assert cycles(graph) == [["a", "b", "c"]]
@@ -118,5 +106,42 @@ def test_no_module_import_cycles():
     assert cycles(import_graph()) == []
 
 
-def test_no_layer_import_cycles():
-    assert cycles(layer_graph(import_graph())) == []
+def _contract_layers() -> list[list[str]]:
+    """The layers contract of pyproject.toml (lint-imports checks the code against it), top
+    first, each layer as its independent modules."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]
+    (layers,) = [c for c in config["contracts"] if c["type"] == "layers"]
+    return [[name.strip() for name in re.split(r"[|:]", layer)] for layer in layers["layers"]]
+
+
+def _design_table() -> list[tuple[str, list[str]]]:
+    """docs/design.md's layer table: (layer, the layers it may import), top first."""
+    text = (ROOT / "docs" / "design.md").read_text()
+    section = text[text.index("## Layers") :]
+    section = section[: section.index("\n## ", 1)]
+    rows = []
+    for line in section.splitlines():
+        cells = [cell.strip() for cell in line.strip("|").split("|")]
+        match = re.fullmatch(r"`(\w+)(?:/|\.py)`", cells[0]) if line.startswith("|") else None
+        if match:
+            rows.append((match.group(1), re.findall(r"\w+", cells[-1])))
+    return rows
+
+
+def test_the_layer_table_is_the_layers_contract():
+    """The table's layers are the contract's, in the same order; what a row may import lies
+    below it in the contract; the modules the contract adds are named below the table."""
+    layers = _contract_layers()
+    flat = [name for layer in layers for name in layer]
+    table = _design_table()
+    assert [name for name, _ in table] == [name for name in flat if name in dict(table)]
+    depth = {name: i for i, layer in enumerate(layers) for name in layer}
+    for name, may_import in table:
+        if may_import == ["all", "below"]:
+            continue
+        for below in may_import:
+            assert depth[below] > depth[name], f"{name} may import {below}, above it"
+    section = (ROOT / "docs" / "design.md").read_text().split("## Layers")[1]
+    for name in flat:
+        if name not in dict(table) and name != "__main__":
+            assert f"`{name}.py`" in section, f"docs/design.md does not name {name}.py"

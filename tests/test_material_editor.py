@@ -14,10 +14,10 @@ import pytest
 
 from dentdemo.app.controller import DemoController
 from dentdemo.app.editor import predict_dent
+from dentdemo.app.materials_save import save_preset
 from dentdemo.errors import DentdemoError
 from dentdemo.model.materials import builtin_materials_path, load_materials
 from dentdemo.model.materials_keys import MATERIAL_NUMBERS
-from dentdemo.model.materials_save import save_preset
 from dentdemo.model.scene import load_scene
 from scene_text import GROUND, TIN, plate
 

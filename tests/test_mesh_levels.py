@@ -91,7 +91,7 @@ def test_flat_shapes_have_no_levels(shape):
 def ball_scene(gl):
     """A 5 cm ball on its own (no ground) with its levels, and a renderer that shades 320 x 240
     pixels without multisampling, so that silhouettes are plain pixel coverage."""
-    from dentdemo.carve.surface import GpuMesh
+    from dentdemo.gpu.mesh import GpuMesh
     from dentdemo.render.frame import MeshLevel
     from dentdemo.render.quality import Quality
     from dentdemo.render.renderer import Renderer

@@ -35,7 +35,10 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from dentdemo.version import VERSION
+
+__version__ = VERSION  # pyproject.toml's, from the installed package's metadata
+
 
 #: The public names (`from dentdemo import *`), each imported on first use.
 __all__ = [

@@ -21,8 +21,6 @@ from dentdemo.carve.carver import Carver as _Carver
 from dentdemo.carve.surface import (
     MAX_MAP_SIZE,
     MIN_MAP_SIZE,
-    GpuMesh,
-    SurfaceMaps,
     create_maps,
     load_height_png,
     rebuild_all_normals,
@@ -31,6 +29,8 @@ from dentdemo.carve.undo import UndoLog, restore_pristine
 from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.gl.context import GLContext, per_context
 from dentdemo.gl.state import preserved
+from dentdemo.gpu.maps import SurfaceMaps
+from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.model.materials import Appearance
 

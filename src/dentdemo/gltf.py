@@ -34,14 +34,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo import __version__
-from dentdemo.carve.surface import SurfaceMaps
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
 from dentdemo.gl.state import preserved
+from dentdemo.gpu.maps import SurfaceMaps
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.model.materials import Appearance
 from dentdemo.outputs import png_bytes, write_bytes
+from dentdemo.version import VERSION
 
 SUFFIXES = (".glb", ".gltf")
 #: The material `extras` key that holds the height map.
@@ -208,7 +208,7 @@ class _Builder:
 
     def document(self, nodes: list[int]) -> dict[str, Any]:
         doc: dict[str, Any] = {
-            "asset": {"version": "2.0", "generator": f"dentdemo {__version__}"},
+            "asset": {"version": "2.0", "generator": f"dentdemo {VERSION}"},
             "scene": 0,
             "scenes": [{"name": "dentdemo", "nodes": nodes}],
             "nodes": self.nodes,

@@ -9,7 +9,6 @@ import errno
 import io
 import json
 import os
-import re
 import shutil
 import tempfile
 from collections.abc import Callable
@@ -22,17 +21,8 @@ if TYPE_CHECKING:  # numpy loads when an array is written: the commands' start s
     import numpy as np
     from numpy.typing import NDArray
 
-#: A body id that is safe as a file name on every platform: letters, digits, '_', '-', '.',
-#: starting with a letter or digit (no path separators, no '..', no hidden files).
-SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
-
-
 #: The longest file name most file systems take, bytes.
 NAME_MAX = 255
-
-
-def is_safe_name(name: str) -> bool:
-    return bool(SAFE_NAME.fullmatch(name)) and ".." not in name
 
 
 def _why(exc: OSError) -> str:

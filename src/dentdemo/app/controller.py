@@ -211,7 +211,7 @@ class DemoController:
         """Write the edited preset into the user's materials file (the last --materials file;
         without one, `MATERIALS_FILE`, watched from then on), keeping its comments and order;
         the shipped presets are never written. The outcome becomes `message`."""
-        from dentdemo.model.materials_save import save_preset
+        from dentdemo.app.materials_save import save_preset
 
         path = self.material_files[-1] if self.material_files else MATERIALS_FILE
         try:

@@ -8,11 +8,11 @@ import math
 
 import moderngl
 
-from dentdemo.carve.surface import SurfaceMaps
 from dentdemo.gl.context import GLContext
 from dentdemo.gl.passes import Pass, PassState
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
+from dentdemo.gpu.maps import SurfaceMaps
 
 #: Side of the height view's texture, pixels.
 VIEW_SIZE = 256

@@ -12,9 +12,10 @@ import numpy as np
 from dentdemo import interrupt, outputs
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver
-from dentdemo.carve.surface import GpuMesh, create_maps
+from dentdemo.carve.surface import create_maps
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
+from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.model.shapes import (
     Box,

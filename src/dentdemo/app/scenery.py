@@ -14,8 +14,8 @@ from numpy.typing import NDArray
 
 from dentdemo.app.shared import Shared
 from dentdemo.app.simulation import SimBody, Simulation
-from dentdemo.carve.surface import GpuMesh
 from dentdemo.gl.context import GLContext
+from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.shapes import coarser_levels, plate_sides
 from dentdemo.model.shapes import Plate, Shape
 from dentdemo.render.frame import MeshLevel

@@ -18,9 +18,11 @@ from dentdemo.app.reshape import DentProxy, proxy_for, shape_field
 from dentdemo.app.shared import Shared
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, Press
-from dentdemo.carve.surface import GpuMesh, SurfaceMaps, create_maps, load_height_png, map_size_for
+from dentdemo.carve.surface import create_maps, load_height_png, map_size_for
 from dentdemo.carve.undo import UNDO_DEPTH, UndoLog, restore_pristine
 from dentdemo.gl.context import GLContext
+from dentdemo.gpu.maps import SurfaceMaps
+from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.shapes import plate_sides, shape_mesh
 from dentdemo.model.impulse import dent_depth

@@ -39,7 +39,7 @@ from dentdemo.carve.surface import rebuild_all_normals
 from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model import shapes
-from dentdemo.model.scene import BOUNDS, SHAPE_KINDS, BodySpec
+from dentdemo.model.scene import BOUNDS, SHAPE_KINDS, BodySpec, is_safe_name
 from dentdemo.model.shapes import Plane
 from dentdemo.model.validate import TableReader
 from dentdemo.physics.world import Impact, WorldState
@@ -351,7 +351,7 @@ def _shape(r: TableReader) -> shapes.Shape:
 def _added(sim: Simulation, r: TableReader, taken: dict[str, BodySpec]) -> BodySpec:
     """A body added while running, as _added_body wrote it."""
     body_id = r.string("id")
-    if not outputs.is_safe_name(body_id) or body_id in taken:
+    if not is_safe_name(body_id) or body_id in taken:
         raise r.fail("id", "must be a safe file name that no other body has")
     shape = _shape(r.table_at("shape"))
     material = sim.materials.get(r.string("material"), r.source, f"[{r.table_name}] key 'material'")

@@ -15,7 +15,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from dentdemo import __version__, interrupt
+from dentdemo import interrupt
 from dentdemo.app.press import make_setup, shape_from_args
 from dentdemo.bench.glcount import counting
 from dentdemo.bench.timing import PassTimer, interleaved_medians, median_ms
@@ -30,6 +30,7 @@ from dentdemo.carve.carver import (
 from dentdemo.carve.cpu_reference import CpuReference
 from dentdemo.gl.context import GLContext, create_headless
 from dentdemo.progress import progress_bar
+from dentdemo.version import VERSION
 
 #: The press every per-hit measurement uses: a 5 cm ball 1 cm into a 1 m plate, the ball 2 mm.
 PRESS = {"tool_radius_m": 0.05, "plate_side_m": 1.0, "depth_m": 0.01, "tool_depth_m": 0.002}
@@ -505,7 +506,7 @@ def run_bench(mode: str, window: bool = False, frames: int | None = None) -> dic
             bar.close()
         result = {
             "schema": 1,
-            "dentdemo": __version__,
+            "dentdemo": VERSION,
             "mode": mode,
             "machine": {
                 "renderer": gl.renderer,

@@ -27,7 +27,6 @@ from dentdemo.carve.camera import (
 )
 from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
 from dentdemo.carve.linear import inverse3
-from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.carve.texel_passes import (
     CHART,
     GUTTER,
@@ -48,6 +47,8 @@ from dentdemo.gl.library import flush
 from dentdemo.gl.passes import Blend, Pass, PassState, neutral, shared_batch
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
+from dentdemo.gpu.maps import SurfaceMaps
+from dentdemo.gpu.mesh import GpuMesh
 
 if TYPE_CHECKING:
     from dentdemo.carve.undo import UndoLog

@@ -16,7 +16,8 @@ from dentdemo.gl.passes import MIN_BLEND, Pass, PassState
 from dentdemo.gl.shaders import program
 
 if TYPE_CHECKING:
-    from dentdemo.carve.surface import GpuMesh, SurfaceMaps
+    from dentdemo.gpu.maps import SurfaceMaps
+    from dentdemo.gpu.mesh import GpuMesh
     from dentdemo.mesh.mesh import Mesh
 
 #: Clip distances clip.glsl writes (camera rectangle: 4, depth slab: 2).

@@ -47,10 +47,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.carve.linear import cross3, dot3, inverse3, rows_times
-from dentdemo.carve.surface import GpuMesh, SurfaceMaps, flatten, rebuild_all_normals
+from dentdemo.carve.surface import flatten, rebuild_all_normals
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.library import gl_library
 from dentdemo.gl.state import preserved
+from dentdemo.gpu.maps import SurfaceMaps
+from dentdemo.gpu.mesh import GpuMesh
 
 if TYPE_CHECKING:
     from dentdemo.carve.carver import CarveJob

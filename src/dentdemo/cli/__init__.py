@@ -9,10 +9,11 @@ import sys
 from collections.abc import Callable, Sequence
 from types import ModuleType
 
-from dentdemo import __version__, interrupt, log
+from dentdemo import interrupt, log
 from dentdemo.cli import args as cli_args
 from dentdemo.cli import bench, demo, indent, info, materials, render, simulate
 from dentdemo.errors import DentdemoError, ShaderError
+from dentdemo.version import VERSION
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -33,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EXAMPLES,
         formatter_class=cli_args.HelpFormatter,
     )
-    parser.add_argument("--version", action="version", version=f"dentdemo {__version__}")
+    parser.add_argument("--version", action="version", version=f"dentdemo {VERSION}")
     cli_args.add_quiet(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=cli_args.Parser)
     for module in COMMANDS:

@@ -8,6 +8,7 @@ then Z, about the world axes); velocities in m/s and rad/s.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,10 +29,18 @@ from dentdemo.model.shapes import (
     Sphere,
 )
 from dentdemo.model.validate import TableReader, load_toml
-from dentdemo.outputs import is_safe_name
 
 SHAPE_KINDS = tuple(KINDS)
 DEFAULT_TEXELS_PER_METRE = 256.0
+
+#: A body id that is safe as a file name on every platform (it names the body's map files):
+#: letters, digits, '_', '-', '.', starting with a letter or digit (no path separators, no '..',
+#: no hidden files).
+SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+
+
+def is_safe_name(name: str) -> bool:
+    return bool(SAFE_NAME.fullmatch(name)) and ".." not in name
 
 
 @dataclass(frozen=True)

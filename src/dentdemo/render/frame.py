@@ -9,7 +9,8 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo.carve.surface import GpuMesh, SurfaceMaps
+from dentdemo.gpu.maps import SurfaceMaps
+from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.model.materials import Appearance
 from dentdemo.model.scene import LightSpec
 from dentdemo.render.camera import Camera

@@ -9,10 +9,10 @@ from dataclasses import dataclass, replace
 import moderngl
 import numpy as np
 
-from dentdemo.carve.surface import GpuMesh
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.passes import ALPHA_BLEND, Pass, PassState, Sampled
 from dentdemo.gl.shaders import program
+from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh import primitives
 from dentdemo.render.camera import NEAR, look_at, orthographic
 from dentdemo.render.displacement import displacement_path

@@ -9,8 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo.carve.surface import GpuMesh, SurfaceMaps
 from dentdemo.gl.context import GLContext
+from dentdemo.gpu.maps import SurfaceMaps
+from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.model.materials import Appearance
 from dentdemo.model.scene import LightSpec
 from dentdemo.render.camera import SideCamera
