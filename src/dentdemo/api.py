@@ -426,9 +426,9 @@ class Carver:
     def prepare(self, *surfaces: DentableSurface) -> None:
         """Make now what the first presses of `surfaces` would make inside them: the vertex
         arrays and index streams of every pass that may draw each one, and the shader variants
-        the driver compiles when a pass first draws under a new state (on llvmpipe 1-4 ms each,
-        several at a surface's first presses). For a host's loading screen, not its frame loop;
-        no texel changes, and the host's GL state is left as it was."""
+        the driver compiles when a pass first draws under a new state (several at a surface's
+        first presses, each a visible stall on llvmpipe). For a host's loading screen, not its
+        frame loop; no texel changes, and the host's GL state is left as it was."""
         carver = self._live()
         ready: list[tuple[GpuMesh, SurfaceMaps]] = []  # every surface checked before any GL work
         for index, surface in enumerate(surfaces):

@@ -1,9 +1,8 @@
 """Python's heap between the sandbox's frames: the cyclic garbage collector's oldest generation
 scans every object alive (the modules, the scene, its meshes and GL wrappers), and in the sandbox
-that full pass took 34-36 ms, once in the first 240 frames on the development VM: a frame's hitch,
-landing in whichever phase allocated last (the carve's planning, at frame 33 of the bench's
-ball drop). `settle` freezes what is alive once a scene is loaded, so the frames' collections scan
-only what the frames allocate."""
+that full pass is a frame's hitch, landing in whichever phase allocated last (the carve's
+planning, in the bench's ball drop). `settle` freezes what is alive once a scene is loaded, so
+the frames' collections scan only what the frames allocate."""
 
 from __future__ import annotations
 

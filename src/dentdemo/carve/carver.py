@@ -199,8 +199,8 @@ class _Scratch:
 
 #: A built-in sphere's chart texels are drawn as rectangles where its footprint's triangles hold
 #: at most this many texels of their boxes each: finer, the triangles' setup costs more than the
-#: rectangles' idle texels (docs/carve.md, "Texel rectangles": on llvmpipe, passes 4 and 5 of a
-#: sphere's hit cost the same to 0.55 ms less at 2.8 texels a triangle, 0.2 ms more at 10).
+#: rectangles' idle texels (docs/carve.md, "Texel rectangles"; the crossover was measured on
+#: llvmpipe).
 RECT_TEXELS_PER_TRIANGLE = 3.0
 
 
@@ -328,7 +328,7 @@ class Carver:
         #: Give the host its GL state back after each batch (`gl.state.preserved`). False for
         #: the sandbox, which owns its context and whose every pass sets the state it draws
         #: with: the batch then starts from `neutral` state and leaves it, and the capture and
-        #: restore of the host's (0.3 ms a batch on llvmpipe) are saved.
+        #: restore of the host's state are saved.
         self.keep_host_state = True
         #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
         self._posed: dict[tuple[int, bytes], tuple[Mesh, dict[str, object]]] = {}
@@ -421,8 +421,8 @@ class Carver:
         first hit: its index streams and the vertex arrays of every program that may draw them
         (passes 4 and 5 as a target, pass 2 where it may hide part of itself, pass 3 as a tool
         not drawn as one quad). For a body being made (app/simulation.py): in the bench's
-        sandbox, whose balls are all of other sizes, first hits made 355 vertex arrays at about
-        45 us each, 0.03 ms of a hit's carve."""
+        sandbox, whose balls are all of other sizes, first hits otherwise made hundreds of vertex
+        arrays inside the carve."""
         for _, pass_, subset in self._body_draws(gpu_mesh.mesh):
             if subset:
                 gpu_mesh.vao(pass_.program, subset)
@@ -431,11 +431,11 @@ class Carver:
         """Compile now the shader variants that this carver's first draws of a body with these
         maps would compile inside a carve: llvmpipe builds a variant of a program for each state
         it is drawn under (the formats and filters of what it samples, whether the map's sides
-        are powers of two, ...) when first drawn so, 1-4 ms each. Each program that may draw the
-        body (`_body_draws`) is drawn once, under its pass's state and with the textures it
-        samples then, into an empty viewport: no fragment, no texel changed. Once per kind of
-        body and of map (a body like one warmed before draws nothing); the host's GL state is
-        left as it was."""
+        are powers of two, ...) when first drawn so, a stall each time. Each program that may
+        draw the body (`_body_draws`) is drawn once, under its pass's state and with the
+        textures it samples then, into an empty viewport: no fragment, no texel changed. Once
+        per kind of body and of map (a body like one warmed before draws nothing); the host's GL
+        state is left as it was."""
         draws = list(self._body_draws(gpu_mesh.mesh))
         w, h = maps.size
         # The passes drawn, and what of the maps they sample differs between bodies (whether

@@ -1,6 +1,6 @@
 """3 x 3 linear algebra on Python floats, for the few small matrices and vectors a hit's
-planning works with (numpy's general routines cost 10-20 µs a call on such sizes; these cost
-2-3 µs, and a product of vectors of three less than a numpy call)."""
+planning works with: on such sizes numpy's general routines cost several times these in call
+overhead alone."""
 
 from __future__ import annotations
 

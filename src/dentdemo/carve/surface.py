@@ -108,8 +108,8 @@ def flatten(maps: SurfaceMaps) -> None:
     """A pristine surface's maps, by two clears on the GPU: every height 0 and every normal the
     flat tangent-space one (0, 0, 1). Pass 5 over a map of zero heights gives that normal at
     every texel (the tests compare the two), so a new or repaired body needs no pass over its
-    whole map (on llvmpipe 288 of the 580 ms a 4096² map took to make, and a 64 MiB upload of
-    zeros most of the rest). Called inside `preserved`."""
+    whole map and no upload of zeros, which were most of the time a large map took to make.
+    Called inside `preserved`."""
     maps.height_fbo.clear(0.0, 0.0, 0.0, 0.0)
     maps.normal_fbo.clear(*FLAT_NORMAL)
 

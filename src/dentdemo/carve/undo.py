@@ -26,8 +26,8 @@ without.
 Where the snapshots live: an entry's rectangles are packed side by side (`packed`: shelves,
 tallest first) into one pair of textures (height, normals) whose sides are the packing's rounded
 up to a size class (`size_class`: 16, 24, 32, 48, 64, 96, ... texels), so that the pairs of
-dropped entries serve the next ones instead of being deleted and made again. On llvmpipe a
-pair costs about 30 us to make: one pair a batch, not one a rectangle (a sandbox frame's batch
+dropped entries serve the next ones instead of being deleted and made again. Making a pair
+costs more than copying into it: one pair a batch, not one a rectangle (a sandbox frame's batch
 has about six), and the copies into it follow each other (every height, then every normal).
 The log counts the pairs' texture bytes against its budget; pairs kept idle for reuse are at
 most `IDLE_BYTES`.

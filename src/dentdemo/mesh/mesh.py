@@ -353,9 +353,8 @@ class Mesh:
         """Build now the cached structures pass 1 and the undo log query (corners, bounding
         spheres, clusters, uv derivatives and bounds, chart borders and charts, closedness, the
         facets' sag, how `frame_near` finds its triangle, flatness), as a body is made:
-        otherwise each body builds them at its first hit, which then costs about 3 ms more for
-        a 1 728-triangle ball on the development VM (a sandbox drop's first hits are mostly
-        first hits; the check of a ball's triangles for `frame_near` alone is 0.8 ms)."""
+        otherwise each body builds them inside its first hit's carve, and a sandbox drop's hits
+        are mostly first hits (docs/performance.md)."""
         self.corner_array()
         self.face_normals()
         self.triangle_uv_bounds()

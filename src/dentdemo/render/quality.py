@@ -16,8 +16,8 @@ class Quality:
     #: Shadow comparisons per pixel (1, or 4 for a 3 x 3 texel filter).
     shadow_taps: int
     #: Shaded pixels per output pixel, per axis (the frame is stretched bilinearly to the output).
-    #: On llvmpipe the body shading costs about 60 ns a shaded pixel: 0.45 rather than 0.5 takes
-    #: 4 ms off a 1280 x 720 frame, and the 1 mm close-up dent still changes 73 % of its pixels.
+    #: On a software rasteriser the body shading's cost follows the shaded pixels; low's 0.45
+    #: still shows the 1 mm close-up dent (tests/test_look.py).
     render_scale: float = 1.0
     #: Procedural surface detail (brushed, cast, grain) in the shading.
     surface_detail: bool = True
@@ -27,8 +27,8 @@ class Quality:
     #: Where it moves, edges are cut into segments of about this many pixels...
     segment_pixels: float = 2.0
     #: ...but into no more than this many (the tessellation level; GL guarantees 64). 1: no cuts,
-    #: the drawn mesh's own vertices move (no tessellation stages: on llvmpipe they cost about
-    #: 5 us a patch, a third of the low preset's 20-body frame; vertex displacement costs 5 %).
+    #: the drawn mesh's own vertices move (no tessellation stages, which cost llvmpipe far more
+    #: per patch than moving vertices does: docs/performance.md).
     max_segments: int = 64
 
 
