@@ -77,6 +77,62 @@ def test_disjoint_hits_in_a_batch_equal_one_by_one(gl, max_resolution):
         bodies.release()
 
 
+#: Tools of every kind (drawn by pass 3 as one quad: sphere, capsule; as triangles: box,
+#: cylinder), their map sides (not all powers of two) and radii.
+_TOOLS = [
+    (Sphere(0.03), 128),
+    (Box((0.08, 0.08, 0.08)), 96),
+    (Capsule(0.05, 0.1), 64),
+    (Cylinder(0.035, 0.07), 200),
+    (Sphere(0.045), 256),
+    (Capsule(0.025, 0.025), 128),
+]
+
+
+@pytest.mark.parametrize("degrees", [0.0, 17.0])
+def test_a_tools_dent_does_not_depend_on_the_rest_of_its_batch(gl, degrees):
+    """Six presses with a tool depth, straight down and tilted: each tool's dent in the batch,
+    in the batch reversed, and pressed alone on a fresh scene are the same bits (the plate's
+    too: the footprints are apart). Tilted, the plate seen by a tool's camera has a depth
+    gradient, where a depth the rasteriser interpolates rounds by where the tile lies."""
+    bodies = Bodies(gl)
+    carver = Carver(gl)
+    press_along = tilt((0.0, 1.0, 0.0), degrees)
+
+    def scene():
+        plate = bodies.make(press_mesh(Plate(1.0), 2), 512)
+        tools, presses = [], []
+        for (shape, size), (x, z) in zip(_TOOLS, SPOTS, strict=True):
+            tool = bodies.make(press_mesh(shape, 1), size)
+            reach = float(np.max(np.abs(tool.gpu_mesh.mesh.positions[:, 1])))
+            tool.model = translation((x, reach, z))
+            contact = ContactFrame(np.array([x, 0.0, z]), press_along)
+            tools.append(tool)
+            presses.append((plate, tool, contact, 0.006, 0.002))
+        return plate, tools, presses
+
+    try:
+        plate, tools, presses = scene()
+        carver.carve_many(presses)
+        rev_plate, rev_tools, rev_presses = scene()
+        carver.carve_many(rev_presses[::-1])
+        alone_plates = []
+        for k in range(len(_TOOLS)):
+            one_plate, one_tools, one_presses = scene()
+            carver.carve(*one_presses[k])
+            alone = _maps(gl, one_tools[k])
+            assert (alone[0] < DENTED).sum() > 10  # the tool takes a dent
+            for got in (_maps(gl, tools[k]), _maps(gl, rev_tools[k])):
+                assert np.array_equal(got[0], alone[0]) and np.array_equal(got[1], alone[1]), k
+            alone_plates.append(heights(gl, one_plate))
+        expected = np.minimum.reduce(alone_plates)
+        assert np.array_equal(heights(gl, plate), expected)
+        assert np.array_equal(heights(gl, rev_plate), expected)
+    finally:
+        carver.release()
+        bodies.release()
+
+
 def test_overlapping_hits_take_the_deeper_of_each_alone(gl):
     bodies = Bodies(gl)
     carver = Carver(gl)

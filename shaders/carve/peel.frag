@@ -40,13 +40,36 @@ in vec2 v_uv;
 in float v_depth;
 in vec3 v_normal;
 in vec3 v_world;
+flat in vec3 t_world[3];   // peel.geom: the triangle's corners, world metres
+flat in vec2 t_uv[3];
+flat in vec3 t_normal[3];  // world
+
+// The view depth, uv and normal where the pixel's view line meets the triangle's plane, from the
+// pixel's index (camera_line) and the corners alone: the same bits in any tile. An edge-on
+// triangle keeps the interpolated values.
+void on_plane(inout float depth, inout vec2 uv, inout vec3 n) {
+    vec3 e1 = t_world[1] - t_world[0], e2 = t_world[2] - t_world[0];
+    vec3 face = cross(e1, e2);
+    float den = dot(face, u_forward);
+    if (abs(den) <= 1e-6 * length(face)) return;
+    vec3 line = camera_line(gl_FragCoord.xy);  // at view depth 0
+    depth = dot(face, t_world[0] - line) / den;
+    vec3 q = line + u_forward * depth - t_world[0];
+    float area = dot(face, face);
+    float b1 = dot(cross(q, e2), face) / area, b2 = dot(cross(e1, q), face) / area;
+    float b0 = 1.0 - b1 - b2;
+    uv = b0 * t_uv[0] + b1 * t_uv[1] + b2 * t_uv[2];
+    n = normalize(b0 * t_normal[0] + b1 * t_normal[1] + b2 * t_normal[2]);
+}
 
 void main() {
     ivec2 size = textureSize(u_height, 0);
-    float h_tool = texelFetch(u_height, texel_of(v_uv, size), 0).r;
-    bool back = !gl_FrontFacing;
     float depth = v_depth;
+    vec2 uv = v_uv;
     vec3 n = normalize(v_normal);
+    on_plane(depth, uv, n);
+    float h_tool = texelFetch(u_height, texel_of(uv, size), 0).r;
+    bool back = !gl_FrontFacing;
 #if SWEPT  // a built-in sphere or capsule: where the view line enters or leaves its smooth surface
     {
         vec3 line = camera_line(gl_FragCoord.xy);  // exact: the same bits in any tile

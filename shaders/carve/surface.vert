@@ -2,6 +2,13 @@
 // Passes 2 and 3: a body's mesh seen by the collision camera.
 #include "camera.glsl"
 
+#if PLANE  // pass 3's triangles go through peel.geom, which takes these as its inputs
+#define v_uv g_uv
+#define v_depth g_depth
+#define v_normal g_normal
+#define v_world g_world
+#endif
+
 uniform mat4 u_model;          // world from local, metres
 uniform mat3 u_normal_matrix;  // world from local, for normals
 uniform float u_near_clip;     // pass 2 (one clip distance): no surface nearer than this view

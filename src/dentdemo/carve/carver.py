@@ -293,7 +293,10 @@ class Carver:
                     gl.ctx,
                     "carve/quad.vert" if quad else "carve/surface.vert",
                     f"carve/{name}.frag",
-                    defines=shader_defines(SWEPT=int(swept), QUAD=int(quad), **atlas),
+                    "carve/peel.geom" if name == "peel" and not quad else None,
+                    defines=shader_defines(
+                        SWEPT=int(swept), QUAD=int(quad), PLANE=int(name == "peel"), **atlas
+                    ),
                 ),
                 state,
                 samplers,
