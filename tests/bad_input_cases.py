@@ -757,6 +757,29 @@ def flag_cases() -> list[Case]:
         ("out_name_too_long", [*RENDER[:-1], "o" * 252 + ".png"], ("--out", "256 bytes")),
         ("video_name_too_long", [*RENDER, "--video", "v" * 252 + ".gif"], ("--video", "256")),
         ("out_percent_alone", [*RENDER[:-1], "out/a%.png"], ("--out", "a%.png", "%%")),
+        # Issue 46 item 8 and issue 41 item 13: the suffix names the format written; a %s
+        # pattern wrote r0.png while "wrote r%s.png" was reported; an empty path is no path.
+        ("out_jpg", [*RENDER[:-1], "out/r.jpg"], ("--out", "r.jpg", ".png")),
+        ("out_glb", [*RENDER[:-1], "out/r.glb"], ("--out", "r.glb", ".png")),
+        ("out_string_pattern", [*RENDER[:-1], "out/r%s.png"], ("--out", "r%s.png", "%04d")),
+        ("out_two_numbers", [*RENDER[:-1], "out/r%d_%d.png"], ("--out", "r%d_%d.png")),
+        (
+            "bench_json_gif",
+            ["bench", "--tiny", "--json", "out/o.gif"],
+            ("--json", "o.gif", ".json"),
+        ),
+        ("bench_plot_jpg", ["bench", "--tiny", "--plot", "out/p.jpg"], ("--plot", "p.jpg", ".png")),
+        ("indent_render_jpg", [*INDENT, "--render", "out/r.jpg"], ("--render", "r.jpg", ".png")),
+        ("screenshot_gif", ["demo", "--screenshot", "out/s.gif"], ("--screenshot", "s.gif")),
+        ("video_png", [*RENDER, "--video", "out/v.png"], ("--video", "v.png", ".mp4")),
+        ("gltf_empty", [*RENDER, "--gltf", ""], ("--gltf", "''")),
+        ("load_state_empty", [*RENDER, "--load-state", ""], ("--load-state", "''")),
+        ("save_state_empty", [*RENDER, "--save-state", ""], ("--save-state", "''")),
+        ("maps_dir_empty", [*RENDER, "--maps-dir", ""], ("--maps-dir", "''")),
+        ("screenshot_empty", ["demo", "--screenshot", ""], ("--screenshot", "''")),
+        ("bench_json_empty", ["bench", "--tiny", "--json", ""], ("--json", "''")),
+        ("out_empty", [*RENDER[:-1], ""], ("--out", "''")),
+        ("indent_out_empty", [*INDENT[:-1], ""], ("--out", "''")),
     ]
     cases = [Case(f"flags-{name}", "flags", argv, files, reject=frag) for name, argv, frag in table]
     cases += [

@@ -10,6 +10,7 @@ import io
 import json
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -29,14 +30,65 @@ def _why(exc: OSError) -> str:
     return exc.strerror or str(exc)
 
 
-def check_output_dir(flag: str, path: Path) -> Path:
+#: The suffixes of each format a writer may be asked for (checked against an output's name).
+PNG, JSON = (".png",), (".json",)
+
+
+#: What each kind of node is called in a refusal (an existing output must be a regular file).
+_NODE_KINDS = (
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _node_kind(path: Path) -> str | None:
+    """What `path` is when it exists and is neither a regular file nor a folder (a symbolic
+    link is followed: one to /dev/null is a character device), else None."""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    return next((name for test, name in _NODE_KINDS if test(mode)), "not a regular file")
+
+
+def _probe(flag: str, folder: Path, what: str) -> None:
+    """Make and remove a temporary file in the existing `folder` (a temporary folder where
+    `what` is "folder"), as a writer would: permissions, a read-only file system or sysfs
+    refuse here, before any work, rather than after it (root passes os.access everywhere)."""
+    try:
+        if what == "folder":
+            os.rmdir(tempfile.mkdtemp(prefix=".dentdemo-probe.", dir=folder))
+        else:
+            fd, name = tempfile.mkstemp(prefix=".dentdemo-probe.", dir=folder)
+            os.close(fd)
+            os.unlink(name)
+    except OSError as exc:
+        raise DentdemoError(f"{flag}: cannot write in folder '{folder}' ({_why(exc)})") from None
+
+
+def _named(flag: str, path: Path | str, what: str) -> Path:
+    """`path` as a Path; an empty or blank name (Path('') is '.') is an error."""
+    if isinstance(path, str) and not path.strip():
+        raise DentdemoError(f"{flag}: '{path}' is not a {what} name")
+    return Path(path)
+
+
+def check_output_dir(flag: str, path: Path | str) -> Path:
     """A folder that exists and is writable, or that can be made (its nearest existing ancestor is
-    a writable folder). Checked before any work; nothing is created until a file is written."""
+    a writable folder), each tried by making a temporary file or folder there. Checked before
+    any work; nothing is left behind until a file is written."""
+    path = _named(flag, path, "folder")
     if path.exists():
         if not path.is_dir():
-            raise DentdemoError(f"{flag}: '{path}' exists and is not a folder")
+            kind = _node_kind(path) or "a file"
+            raise DentdemoError(f"{flag}: '{path}' exists and is not a folder (it is {kind})")
         if not os.access(path, os.W_OK | os.X_OK):
             raise DentdemoError(f"{flag}: folder '{path}' is not writable")
+        _probe(flag, path, "file")
         return path
     ancestor = path.absolute().parent
     while not ancestor.exists():
@@ -45,13 +97,17 @@ def check_output_dir(flag: str, path: Path) -> Path:
         raise DentdemoError(f"{flag}: cannot create '{path}': '{ancestor}' is not a folder")
     if not os.access(ancestor, os.W_OK | os.X_OK):
         raise DentdemoError(f"{flag}: cannot create '{path}': folder '{ancestor}' is not writable")
+    _probe(flag, ancestor, "folder")
     return path
 
 
-def check_output_file(flag: str, path: Path) -> Path:
-    """A file path whose folder exists (or can be made) and is writable, and that is not a
-    folder itself; checked before any work."""
-    if str(path) == "" or path.name in ("", ".", ".."):
+def check_output_file(flag: str, path: Path | str, suffixes: tuple[str, ...] = ()) -> Path:
+    """A file path whose folder exists (or can be made) and is writable, that is not a folder, a
+    device, a FIFO or a socket (a writer renames over its target: /dev/null would become a
+    file), and that ends in one of `suffixes` (lower case, with the dot) where given, so that
+    the bytes match the name; checked before any work."""
+    path = _named(flag, path, "file")
+    if path.name in ("", ".", ".."):
         raise DentdemoError(f"{flag}: '{path}' is not a file name")
     size = len(path.name.encode())
     if size > NAME_MAX:
@@ -61,10 +117,22 @@ def check_output_file(flag: str, path: Path) -> Path:
         )
     if path.is_dir():
         raise DentdemoError(f"{flag}: '{path}' is a folder, not a file")
+    check_regular(flag, path)
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise DentdemoError(f"{flag}: '{path}' must end in {' or '.join(suffixes)}")
     check_output_dir(flag, path.parent)
     if path.exists() and not os.access(path, os.W_OK):
         raise DentdemoError(f"{flag}: '{path}' is not writable")
     return path
+
+
+def check_regular(flag: str, path: Path) -> None:
+    """Refuse an existing `path` that is a device, FIFO or socket (or a link to one)."""
+    kind = _node_kind(path)
+    if kind is not None:
+        raise DentdemoError(
+            f"{flag}: '{path}' exists and is {kind}, not a regular file; nothing written"
+        )
 
 
 def _hidden_prefix(path: Path, suffix: str) -> str:
@@ -191,7 +259,11 @@ def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise DentdemoError(f"{path.parent}: cannot create folder ({_why(exc)})") from None
-    fd, tmp = temporary_beside(path)
+    check_regular(str(path), path)
+    try:
+        fd, tmp = temporary_beside(path)
+    except OSError as exc:
+        raise DentdemoError(f"{path}: cannot write ({_why(exc)})") from None
     try:
         with os.fdopen(fd, "wb") as handle:
             write(handle)

@@ -117,12 +117,13 @@ def add_gltf(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def check_gltf(text: str | None) -> Path | None:
-    """The --gltf path, checked before any work: writable, and .glb or .gltf."""
-    if not text:
+    """The --gltf path, checked before any work: writable, and .glb or .gltf (an empty one is
+    an error, not the flag left out)."""
+    if text is None:
         return None
-    from dentdemo.gltf import check_path
+    from dentdemo.gltf import SUFFIXES
 
-    return check_output_file("--gltf", check_path("--gltf", Path(text)))
+    return check_output_file("--gltf", text, SUFFIXES)
 
 
 def int_in(lo: int, hi: int) -> Callable[[str], int]:

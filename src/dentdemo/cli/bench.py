@@ -4,12 +4,11 @@ times against scene size, and the memory of the maps."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from dentdemo.cli.args import command, int_in
 from dentdemo.errors import DentdemoError
 from dentdemo.extras import require_app
-from dentdemo.outputs import check_output_file, write_json
+from dentdemo.outputs import JSON, PNG, check_output_file, write_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -45,8 +44,8 @@ def run(args: argparse.Namespace) -> int:
     from dentdemo.bench.report import plot, print_table
     from dentdemo.bench.run import run_bench
 
-    json_path = check_output_file("--json", Path(args.json)) if args.json else None
-    plot_path = check_output_file("--plot", Path(args.plot)) if args.plot else None
+    json_path = check_output_file("--json", args.json, JSON) if args.json is not None else None
+    plot_path = check_output_file("--plot", args.plot, PNG) if args.plot is not None else None
     from dentdemo.gl.context import has_display
 
     if args.window:

@@ -18,7 +18,7 @@ from dentdemo.cli.args import (
 )
 from dentdemo.errors import DentdemoError, GLUnavailableError
 from dentdemo.extras import require_app
-from dentdemo.outputs import check_output_file
+from dentdemo.outputs import PNG, check_output_file
 
 HEADLESS_FALLBACK = Path("dentdemo_demo.png")
 #: Simulated seconds the headless fallback renders when --exit-after is not given.
@@ -65,9 +65,9 @@ def run(args: argparse.Namespace) -> int:
     from dentdemo.model.scene import load_scene
 
     require_app("the interactive demo", "glfw", "imgui_bundle")
-    shot = Path(args.screenshot) if args.screenshot else None
-    if shot is not None:
-        check_output_file("--screenshot", shot)
+    shot = None
+    if args.screenshot is not None:
+        shot = check_output_file("--screenshot", args.screenshot, PNG)
     gltf = check_gltf(args.gltf)
     exit_after = args.exit_after
     if shot is not None and exit_after is None:
@@ -109,8 +109,8 @@ def _headless_instead(
     """The same scene (its frame step `dt`, seconds) rendered headless, for lack of a window."""
     from dentdemo.app.headless import render_headless
 
-    out = Path(args.screenshot) if args.screenshot else HEADLESS_FALLBACK
-    check_output_file("--screenshot", out)
+    out = Path(args.screenshot) if args.screenshot is not None else HEADLESS_FALLBACK
+    check_output_file("--screenshot", out, PNG)
     seconds = exit_after if exit_after is not None else FALLBACK_SECONDS
     frames = max(1, round(seconds / dt))
     print(

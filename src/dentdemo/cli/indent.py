@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from dentdemo import log
 from dentdemo.cli.args import add_quality, command, float_in, int_in, size_wxh
 from dentdemo.errors import DentdemoError
-from dentdemo.outputs import check_output_dir, check_output_file, write_json
+from dentdemo.outputs import PNG, check_output_dir, check_output_file, write_json
 
 if TYPE_CHECKING:
     from dentdemo.app.press import PressSetup
@@ -155,9 +155,8 @@ def run(args: argparse.Namespace) -> int:
     if args.render is None and args.displace is not None:
         flag = "--displace" if args.displace else "--no-displace"
         raise DentdemoError(f"{flag}: only with --render PNG")
-    out = Path(args.out)
-    check_output_dir("--out", out)
-    render = check_output_file("--render", Path(args.render)) if args.render else None
+    out = check_output_dir("--out", args.out)
+    render = check_output_file("--render", args.render, PNG) if args.render is not None else None
     gl = create_headless()
     try:
         setup = make_setup(

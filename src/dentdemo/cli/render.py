@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 from pathlib import Path
 
 from dentdemo.cli.args import (
@@ -17,7 +18,7 @@ from dentdemo.cli.args import (
 )
 from dentdemo.errors import DentdemoError
 from dentdemo.extras import require_app
-from dentdemo.outputs import check_output_dir, check_output_file
+from dentdemo.outputs import PNG, check_output_dir, check_output_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -94,43 +95,57 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
+#: One frame number in a file name: %d, optionally zero-padded to a width (%04d).
+FRAME_NUMBER = re.compile(r"%0?[0-9]*d")
+
+
 def frame_pattern(out: Path) -> bool:
-    """True when `out` names one file per frame (%d-style; %% is a literal %); a bad pattern is
-    an error."""
-    if "%" not in out.name.replace("%%", ""):
+    """True when `out` names one file per frame (one %d-style number; %% is a literal %); any
+    other % pattern (%s, %x, two numbers) is an error, so that the names written are the
+    names reported."""
+    rest = out.name.replace("%%", "")
+    if "%" not in rest:
         return False
-    try:
-        out.name % 0
-    except (TypeError, ValueError):
+    if len(FRAME_NUMBER.findall(rest)) != 1 or rest.count("%") != 1:
         raise DentdemoError(
-            f"--out: '{out.name}' has a bad % pattern (use %04d, and %% for a literal %)"
-        ) from None
+            f"--out: '{out.name}' has a bad % pattern (use one %04d, and %% for a literal %)"
+        )
     return True
+
+
+def _folder(flag: str, text: str | None) -> Path | None:
+    """A folder flag's path; an empty one is an error, not the same as leaving the flag out."""
+    if text is None:
+        return None
+    if not text.strip():
+        raise DentdemoError(f"{flag}: '{text}' is not a folder name")
+    return Path(text)
 
 
 def run(args: argparse.Namespace) -> int:
     from dentdemo.app.headless import render_headless
     from dentdemo.render.renderer import RenderOptions
 
+    if not args.out.strip():
+        raise DentdemoError(f"--out: '{args.out}' is not a file name")
     out = Path(args.out)
     every = frame_pattern(out)
     if not every and "%" in out.name:
         out = out.with_name(out.name % ())  # only %% in it: one file, each %% a literal %
-    check_output_file("--out", out.with_name(out.name % 0) if every else out)
-    maps_dir = Path(args.maps_dir) if args.maps_dir else None
+    check_output_file("--out", out.with_name(out.name % 0) if every else out, PNG)
+    maps_dir = _folder("--maps-dir", args.maps_dir)
+    load_state = _folder("--load-state", args.load_state)
     if maps_dir is not None:
         check_output_dir("--maps-dir", maps_dir)
-    video = Path(args.video) if args.video else None
-    if video is not None:
-        check_output_file("--video", video)
-        if video.suffix.lower() not in (".mp4", ".gif"):
-            raise DentdemoError(f"--video: '{video}' must end in .mp4 or .gif")
+    video = None
+    if args.video is not None:
+        video = check_output_file("--video", args.video, (".mp4", ".gif"))
         if video.suffix.lower() == ".mp4":
             require_app("--video: an MP4", "imageio_ffmpeg")
         if video.suffix.lower() == ".mp4" and (args.size[0] % 2 or args.size[1] % 2):
             raise DentdemoError(f"--video: H.264 needs an even --size, got {args.size}")
     gltf = check_gltf(args.gltf)
-    save_state = Path(args.save_state) if args.save_state else None
+    save_state = _folder("--save-state", args.save_state)
     if save_state is not None:
         from dentdemo.app.state import check_state_dir
 
@@ -147,7 +162,7 @@ def run(args: argparse.Namespace) -> int:
             parallax=args.parallax, view=args.view, displace=not args.no_displace
         ),
         every_frame=every,
-        load_state=Path(args.load_state) if args.load_state else None,
+        load_state=load_state,
         save_state=save_state,
         quality=args.quality,
         eye=tuple(args.eye) if args.eye is not None else None,
@@ -157,7 +172,11 @@ def run(args: argparse.Namespace) -> int:
         progress=True,
         gltf=gltf,
     )
-    print(f"wrote {args.out}")
+    if every:
+        last = args.frames - 1
+        print(f"wrote {out.with_name(out.name % 0)} ... {out.with_name(out.name % last)}")
+    else:
+        print(f"wrote {out}")
     if gltf is not None:
         print(f"wrote {gltf}")
     return 0
