@@ -39,7 +39,10 @@ def describe(ctx: moderngl.Context) -> str:
     if os.environ.get(ENV, "").strip():
         return f"{path} (forced by {ENV}={path}; {version})"
     if path == "mesh":
-        return f"mesh, a finer render mesh ({version} has no tessellation)"
+        return (
+            f"mesh, a finer render mesh ({version} has no tessellation; the low preset moves "
+            "the mesh's own vertices)"
+        )
     return (
         f"tessellation ({version}; the low preset moves the mesh's own vertices); "
         f"{ENV}=mesh forces the finer-mesh fallback"

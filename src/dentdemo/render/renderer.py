@@ -415,30 +415,25 @@ class Renderer:
             ),
             "u_legend_depth": options.legend_depth,
         }
-        groups = [
-            (
-                [
+        for textured in (False, True):
+            for mode in (FLAT, MESH, TESSELLATE):
+                group = [
                     i
                     for i, item in enumerate(frame.items)
                     if (item.texture is not None) == textured and frame.modes[i] == mode
-                ],
-                self._lit_pass(options, textured=textured, mode=mode),
-            )
-            for textured in (False, True)
-            for mode in (FLAT, MESH, TESSELLATE)
-        ]
-        for group, variant in groups:
-            if not group:
-                continue
-            with variant.batch(self.gl.ctx, self.msaa) as draw:
-                for i in group:
-                    item = frame.items[i]
-                    draw(
-                        (0, 0, *self.shade_size),
-                        self._drawer(item, frame.pixel_metres[i], frame.modes[i]),
-                        self._lit_textures(item, frame),
-                        {**per_frame, **self._lit_uniforms(item)},
-                    )
+                ]
+                if not group:  # no variant: a GL 3.3 context cannot build the TESSELLATE one
+                    continue
+                variant = self._lit_pass(options, textured=textured, mode=mode)
+                with variant.batch(self.gl.ctx, self.msaa) as draw:
+                    for i in group:
+                        item = frame.items[i]
+                        draw(
+                            (0, 0, *self.shade_size),
+                            self._drawer(item, frame.pixel_metres[i], mode),
+                            self._lit_textures(item, frame),
+                            {**per_frame, **self._lit_uniforms(item)},
+                        )
         if frame.ground is not None:
             ground = frame.ground
             self._lit_pass(options, ground=True).run(
