@@ -366,8 +366,47 @@ def test_byte_budget_drops_the_oldest_and_is_kept(gl, scene):
         assert carver.undo() and carver.undo() and not carver.undo()
         assert _maps(gl, plate, ball) == states[1]
         log.budget = min(sizes) - 1
-        _press(carver, plate, ball, 5)
+        with pytest.warns(dentdemo.errors.UndoWarning, match="over the undo budget"):
+            _press(carver, plate, ball, 5)
         assert len(log) == 0 and log.bytes == 0 and not carver.undo()
+    finally:
+        log.release()
+
+
+def test_a_call_over_the_budget_is_carved_unrecorded_and_the_history_kept(gl, scene):
+    """A budget that holds each of two presses but not a third, larger one (issue 41, item 7;
+    ee6049f emptied the whole history there, silently): the third is carved, not recorded, and
+    one UndoWarning says so with the budget; the two before it stay, and two undos take them
+    back: the ball (which the third press does not dent) byte for byte as before them, the plate
+    as before them everywhere but the third dent's texels, which keep that dent."""
+    plate, ball, carver = scene
+    log = _own_log(carver, UNDO_DEPTH, UNDO_BYTES)
+    try:
+        start = _maps(gl, plate, ball)
+        for k in range(2):
+            assert _press(carver, plate, ball, k)
+        log.budget = max(_entry_bytes(entry) for entry in log.entries)
+        before_big = _maps(gl, plate, ball)
+        ball.model = np.eye(4)
+        ball.model[:3, 3] = (0.12, R, 0.1)
+        with pytest.warns(dentdemo.errors.UndoWarning) as caught:
+            assert carver.press(plate, ball, dentdemo.Contact((0.12, 0.0, 0.1), DOWN), 0.012)
+        assert len(caught) == 1
+        message = str(caught[0].message)
+        assert "over the undo budget" in message and "cannot be undone" in message
+        assert "the 2 calls before it stay" in message
+        assert len(log) == 2 and log.unrecorded == 1
+        after_big = _maps(gl, plate, ball)
+        assert after_big[1] == before_big[1]  # the ball: no dent from the third press
+        assert carver.undo() and carver.undo() and not carver.undo()
+        now = _maps(gl, plate, ball)
+        assert now[1] == start[1]
+        for index, kind in ((0, np.float32), (1, np.uint8)):  # the plate's heights, normals
+            old, big_now = (np.frombuffer(m[0][index], kind) for m in (before_big, after_big))
+            got, want = (np.frombuffer(m[0][index], kind) for m in (now, start))
+            big = big_now != old  # the third dent's texels
+            assert big.any() and np.array_equal(got[~big], want[~big])
+            assert np.array_equal(got[big], big_now[big])
     finally:
         log.release()
 

@@ -19,7 +19,23 @@ class ConfigError(DentdemoError):
 
 class ArgumentError(DentdemoError, ValueError):
     """A library call got a bad argument; the message names the argument and its value. A
-    ValueError for a host program, a one-line message for the CLI."""
+    ValueError for a host program (the one class every bad argument of the public API raises),
+    a one-line message for the CLI."""
+
+
+class MissingFileError(ArgumentError, FileNotFoundError):
+    """A file argument names no file: a ValueError like every bad argument, and a
+    FileNotFoundError (OSError) for a host that catches those for files."""
+
+
+class ContextError(DentdemoError, RuntimeError):
+    """A library call was made where the GL context of its objects is not current: another
+    context is current, or none is in the calling thread. Nothing was done."""
+
+
+class UndoWarning(UserWarning):
+    """A call's undo snapshots alone exceed the undo budget: that call is carved but cannot be
+    undone (the history before it is kept)."""
 
 
 class GLUnavailableError(DentdemoError):

@@ -7,7 +7,8 @@ readback. `UndoLog.undo` copies the last batch's rectangles back. One entry is o
 `carve_hits`: one press (both directions), one `press_many`, or one frame's queue in the sandbox,
 so that undo is bit-exact (every hit of a batch reads the heights from before the batch, so a
 single hit of a batch cannot be taken back alone). The log keeps at most `depth` entries and
-`budget` bytes of texels, dropping the oldest.
+`budget` bytes of texels, dropping the oldest; a batch whose snapshots alone exceed `budget` is
+carved unrecorded, with one UndoWarning, and the entries before it stay.
 
 Where a map's rectangles come from: passes 4 and 5 draw only the triangles `camera.target_texels`
 and `camera.target_gutter` (a subset of the first) in texture space; the first write texel centres
@@ -37,6 +38,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import warnings
 from collections import deque
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -48,6 +50,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.linear import cross3, dot3, inverse3, rows_times
 from dentdemo.carve.surface import flatten, rebuild_all_normals
+from dentdemo.errors import UndoWarning
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.library import gl_library
 from dentdemo.gl.state import preserved
@@ -328,8 +331,9 @@ def packed(sides: Sequence[tuple[int, int]]) -> tuple[list[tuple[int, int]], tup
 class UndoLog:
     """The snapshots of the last `depth` batches of hits, at most `budget` bytes in all, on the
     GPU (see the module's docstring). Undo past the oldest kept entry is a no-op returning
-    False. A batch whose snapshots alone exceed the budget empties the log (the older entries
-    could no longer be undone exactly) and is not recorded."""
+    False. A batch whose snapshots alone exceed the budget is not recorded, with an UndoWarning
+    saying so (and `unrecorded` counting it); the entries before it are kept, and undoing them
+    puts their texels back as they were before them, that batch's dents among them too."""
 
     def __init__(self, gl: GLContext, depth: int = UNDO_DEPTH, budget: int = UNDO_BYTES) -> None:
         self.gl = gl
@@ -342,6 +346,8 @@ class UndoLog:
         #: Texture pairs of dropped entries by size, for reuse; `idle_bytes` in all.
         self._idle: dict[tuple[int, int], list[SnapshotTextures]] = {}
         self.idle_bytes = 0
+        #: Batches not recorded because their snapshots alone exceed the budget.
+        self.unrecorded = 0
         #: The framebuffers a copy attaches snapshot textures to (read, draw; made when first
         #: needed).
         self._fbos: tuple[int, int] | None = None
@@ -362,7 +368,16 @@ class UndoLog:
         size = (size_class(width), size_class(height))
         needed = size[0] * size[1] * SNAPSHOT_BYTES_PER_TEXEL
         if needed > self.budget:
-            self.clear()
+            # Recording it would mean dropping every older entry and still going over the
+            # budget: the call is not recorded, the history before it is kept, and it is said.
+            self.unrecorded += 1
+            warnings.warn(
+                f"undo: this call's snapshots would take {_kib(needed)}, over the undo budget "
+                f"of {_kib(self.budget)}: it is carved but cannot be undone; the "
+                f"{len(self.entries)} calls before it stay in the history",
+                UndoWarning,
+                stacklevel=2,
+            )
             return
         while self.entries and (
             len(self.entries) >= self.depth or self.bytes + needed > self.budget
@@ -486,6 +501,11 @@ class UndoLog:
             gl_library().glGenFramebuffers(2, names)
             self._fbos = (names[0], names[1])
         return self._fbos
+
+
+def _kib(count: int) -> str:
+    """A byte count for a message, in KiB (MiB from 1 MiB)."""
+    return f"{count / (1 << 20):.1f} MiB" if count >= 1 << 20 else f"{count / 1024:.1f} KiB"
 
 
 def _is_fbo(side: Side) -> bool:
