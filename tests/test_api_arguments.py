@@ -310,3 +310,36 @@ def test_a_trimesh_without_uvs_is_reatlased_and_maps_back(gl):
         mesh.positions, np.asarray(host.vertices, np.float32)[mesh.source_vertex]
     )
     surface.release()
+
+
+def test_every_entry_point_s_bad_argument_is_a_value_error(gl, tmp_path):
+    """The README's promise, at the entry points it did not hold for on ee6049f: export_gltf to
+    x.obj raised DentdemoError, an unknown look ConfigError, load_mesh of a missing file
+    DentdemoError and shape_mesh of a non-shape TypeError, none of them a ValueError. A missing
+    mesh file is also a FileNotFoundError. Nothing is written."""
+    (tmp_path / "words.obj").write_text("these are words, not vertices\n")
+    plate = dentdemo.DentableSurface(gl.ctx, PLATE, 64)
+    sheared = dentdemo.DentableSurface(gl.ctx, PLATE, 64)
+    sheared.model = np.array([[1.0, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+    glb = tmp_path / "a.glb"
+    cases = [
+        (lambda: dentdemo.load_mesh(tmp_path / "absent.obj"), ("absent.obj", "cannot load mesh")),
+        (lambda: dentdemo.load_mesh(tmp_path / "words.obj"), ("words.obj", "no triangles")),
+        (lambda: dentdemo.load_mesh(tmp_path), (str(tmp_path), "cannot load mesh")),
+        (lambda: dentdemo.load_mesh(3), ("path", "int")),
+        (lambda: dentdemo.load_mesh(tmp_path / "words.obj", -1.0), ("scale", "-1.0")),
+        (lambda: dentdemo.shape_mesh("ball"), ("shape", "Sphere", "str 'ball'")),
+        (lambda: dentdemo.export_gltf(tmp_path / "x.obj", [plate]), ("path", "x.obj", ".glb")),
+        (lambda: dentdemo.export_gltf(None, [plate]), ("path", "None")),
+        (lambda: dentdemo.export_gltf(glb, plate), ("surfaces", "DentableSurface")),
+        (lambda: dentdemo.export_gltf(glb, [plate], looks=["unobtainium"]), ("looks[0]",)),
+        (lambda: dentdemo.export_gltf(glb, [plate], looks=[3]), ("looks[0]", "int")),
+        (lambda: dentdemo.export_gltf(glb, [plate, sheared]), ("surfaces[1].model", "shear")),
+    ]
+    for call, fragments in cases:
+        _raises(call, *fragments)
+    with pytest.raises(FileNotFoundError):
+        dentdemo.load_mesh(tmp_path / "absent.obj")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["words.obj"]
+    for surface in (plate, sheared):
+        surface.release()

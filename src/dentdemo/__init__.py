@@ -27,7 +27,8 @@ The API (each name has its own help, e.g. help(dentdemo.DentableSurface)):
 Mesh.tangents (n, 4): xyz = T along +u, w = handedness, B = cross(N, T) * w; a normal-map texel
 m (rgb * 2 - 1) is T m.x + B m.y + N m.z. Mesh.source_vertex (n,): the caller's vertex each one
 copies (seams, creases and a re-atlas split vertices). Calls keep the host's GL state and read
-nothing back unless asked; a bad argument, or a released surface, raises a ValueError naming it.
+nothing back unless asked; a bad argument, or a released surface, raises a ValueError naming it;
+a call where its surfaces' GL context is not current in the calling thread, a ContextError.
 """
 
 from __future__ import annotations

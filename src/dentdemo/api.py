@@ -1,15 +1,20 @@
 """The types a host program needs to carve dents in its own moderngl context (re-exported by
 `dentdemo`). Every call here leaves the host's GL state as it found it. A bad argument raises
-ValueError (dentdemo.errors.ArgumentError) naming the argument and its value."""
+ValueError (dentdemo.errors.ArgumentError) naming the argument and its value. A call made where
+its objects' GL context is not current in the calling thread (another context is current, or
+none is: another thread) raises dentdemo.errors.ContextError (a RuntimeError) before any work:
+dentdemo never switches contexts, so the host keeps the current context it had."""
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import Any, TypeVar, cast
 
 import moderngl
 import numpy as np
@@ -26,13 +31,13 @@ from dentdemo.carve.surface import (
     rebuild_all_normals,
 )
 from dentdemo.carve.undo import UndoLog, restore_pristine
-from dentdemo.errors import ArgumentError, DentdemoError
+from dentdemo.errors import ArgumentError, ConfigError, DentdemoError
 from dentdemo.gl.context import GLContext, per_context
 from dentdemo.gl.state import preserved
 from dentdemo.gpu.maps import SurfaceMaps
 from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.mesh import Mesh
-from dentdemo.model.materials import Appearance
+from dentdemo.model.materials import Appearance, MaterialLibrary
 
 
 def _vector(name: str, value: object) -> NDArray[np.float64]:
@@ -113,6 +118,22 @@ def _as_mesh(mesh: object) -> Mesh:
     )
 
 
+_Method = TypeVar("_Method", bound=Callable[..., Any])
+
+
+def _in_context(method: _Method) -> _Method:
+    """`method` of a surface or carver, run only where the object's GL context is current in
+    the calling thread: ContextError naming the call first, before any work."""
+    call = f"{method.__name__}()"
+
+    @functools.wraps(method)
+    def checked(self: DentableSurface | Carver, *args: Any, **kwargs: Any) -> Any:
+        self._context().check_current(call)
+        return method(self, *args, **kwargs)
+
+    return cast(_Method, checked)
+
+
 class Contact:
     """Where and which way a press goes: `point` on the target's surface at first touch (world
     metres) and `direction` (world, any non-zero length), the way the tool moves into the
@@ -151,6 +172,11 @@ def _wrap(ctx: moderngl.Context) -> GLContext:
     if "host" not in store:
         store["host"] = GLContext(ctx=ctx, backend="host")
     return store["host"]
+
+
+def _alive(ctx: moderngl.Context) -> bool:
+    """Whether `ctx` is not yet released (a released one took its objects with it)."""
+    return not isinstance(ctx.mglo, moderngl.InvalidObject)
 
 
 def _undo_log(ctx: moderngl.Context, make: bool = True) -> UndoLog | None:
@@ -198,6 +224,7 @@ class DentableSurface:
         self._mesh = _as_mesh(mesh)
         self._mesh.prepare_queries()  # not at the surface's first press
         self._gl = _wrap(ctx)
+        self._gl.check_current("DentableSurface()")
         with preserved(ctx):
             self._gpu: GpuMesh | None = GpuMesh(self._gl, self._mesh)
             self._maps: SurfaceMaps | None = create_maps(self._gl, self._gpu, size, deepest)
@@ -232,6 +259,7 @@ class DentableSurface:
     def normal(self) -> moderngl.Texture:
         return self._live("normal").normal
 
+    @_in_context
     def heights(self) -> NDArray[np.float32]:
         """The height map read back to the CPU, float32 [v, u] metres (for saving with
         numpy.save and inspection; a frame loop binds `height` instead)."""
@@ -239,6 +267,7 @@ class DentableSurface:
         with preserved(self._gl.ctx):
             return self._gl.read(maps.height)[:, :, 0]
 
+    @_in_context
     def set_heights(self, heights: ArrayLike | str | os.PathLike) -> None:
         """Replace the height map and rebuild the normals on the GPU. `heights` is a float
         [v, u] array in metres, map_size x map_size (what `heights()` returns), or the path of
@@ -257,6 +286,7 @@ class DentableSurface:
             )
         self._write_heights(data.astype(np.float32))
 
+    @_in_context
     def set_bump_map(self, path: str | os.PathLike, white_height: float) -> None:
         """Start from a bump map: a greyscale image (8- or 16-bit PNG; colour counts by its
         luminance) laid over the atlas as heights, white = `white_height` metres, black = 0,
@@ -271,12 +301,17 @@ class DentableSurface:
         self._write_heights(data)
 
     def release(self) -> None:
-        """Free the GPU buffers and maps (again: nothing); their undo snapshots go too."""
-        if self._maps is not None and self._gpu is not None:
+        """Free the GPU buffers and maps (again, or once the context is released: nothing on
+        the GPU); their undo snapshots go too."""
+        if self._maps is not None and self._gpu is not None and _alive(self._gl.ctx):
+            self._gl.check_current("release()")
             self._forget_undo(self._maps)
             self._maps.release()
             self._gpu.release()
         self._maps = self._gpu = None
+
+    def _context(self) -> GLContext:
+        return self._gl
 
     def _live(self, what: str) -> SurfaceMaps:
         """The maps, or a clear error naming `what` needed them once released."""
@@ -334,9 +369,11 @@ class Carver:
     Undo: before each `press` or `press_many` call the texels it may write (both surfaces'
     heights and normals) are copied on the GPU, so `undo()` takes back the last call exactly,
     bit for bit, then the one before, up to 64 calls and 64 MiB of copies (8 bytes a texel; the
-    oldest are dropped first). The history is one per moderngl context, shared by its Carvers.
-    It lives on the GPU only: it is not saved with `heights()` and is not restored by
-    `set_heights`, which (like `repair` and `release`) drops that surface's part of it."""
+    oldest are dropped first; a call whose copies alone exceed 64 MiB is carved but not
+    recorded, with one dentdemo.errors.UndoWarning, and the calls before it stay). The history
+    is one per moderngl context, shared by its Carvers. It lives on the GPU only: it is not
+    saved with `heights()` and is not restored by `set_heights`, which (like `repair` and
+    `release`) drops that surface's part of it."""
 
     __slots__ = ("_ctx", "_carver")
 
@@ -344,10 +381,12 @@ class Carver:
         if not isinstance(ctx, moderngl.Context):
             raise ArgumentError(f"ctx must be a moderngl.Context, got {type(ctx).__name__}")
         self._ctx = ctx
+        _wrap(ctx).check_current("Carver()")
         with preserved(ctx):
             self._carver: _Carver | None = _Carver(_wrap(ctx))
         self._carver.undo_log = _undo_log(ctx)
 
+    @_in_context
     def press(
         self,
         target: DentableSurface,
@@ -368,6 +407,7 @@ class Carver:
         not positive."""
         return self._carve([(target, tool, contact, depth, tool_depth)], named=False)[0]
 
+    @_in_context
     def press_many(self, presses: Sequence[Sequence[object]]) -> list[bool]:
         """Every press of a frame at once: `presses` holds (target, tool, contact, depth) or
         (target, tool, contact, depth, tool_depth) tuples, each as for `press`, all checked
@@ -416,6 +456,7 @@ class Carver:
         carver.carve_hits(planned)
         return [bool(jobs) for jobs in planned]
 
+    @_in_context
     def undo(self) -> bool:
         """Take back the last `press` or `press_many` call of this context (both surfaces of
         each press, bit for bit): True, or False with nothing done when no call is left to
@@ -423,6 +464,7 @@ class Carver:
         log = self._live().undo_log
         return log is not None and log.undo()
 
+    @_in_context
     def prepare(self, *surfaces: DentableSurface) -> None:
         """Make now what the first presses of `surfaces` would make inside them: the vertex
         arrays and index streams of every pass that may draw each one, and the shader variants
@@ -447,6 +489,7 @@ class Carver:
                 carver.prepare(gpu_mesh)
             carver.warm(gpu_mesh, maps)
 
+    @_in_context
     def repair(self, surface: DentableSurface) -> None:
         """Give `surface` back the maps it was made with: heights 0 (or those last given to
         `set_heights` / `set_bump_map`) and their normals, on the GPU. Its part of the undo
@@ -462,10 +505,15 @@ class Carver:
         restore_pristine(surface._gl, surface._gpu, maps, surface._start)
 
     def release(self) -> None:
-        """Free the collision camera's buffers (again: nothing)."""
-        if self._carver is not None:
+        """Free the collision camera's buffers (again, or once the context is released:
+        nothing on the GPU)."""
+        if self._carver is not None and _alive(self._ctx):
+            self._context().check_current("release()")
             self._carver.release()
         self._carver = None
+
+    def _context(self) -> GLContext:
+        return _wrap(self._ctx)
 
     def _live(self) -> _Carver:
         if self._carver is None:
@@ -518,9 +566,16 @@ def export_gltf(
     its normalTexture, and `extras.dentdemo_height` references the height map as a 16-bit PNG
     with `offset_m` and `metres_per_unit` (height_m = offset_m + metres_per_unit * value).
     Returns the path. The host's GL state is left as it was."""
-    from dentdemo.gltf import GltfBody, check_path, dented_part, write_gltf
+    from dentdemo.gltf import GltfBody, check_path, dented_part, trs, write_gltf
 
-    target = check_path("path", Path(path))
+    try:
+        target = check_path("path", Path(path))
+    except TypeError:
+        raise ArgumentError(f"path must be a .glb or .gltf file name, got {path!r}") from None
+    except DentdemoError as exc:
+        raise ArgumentError(str(exc)) from None
+    if isinstance(surfaces, str | bytes) or not isinstance(surfaces, Iterable):
+        raise ArgumentError(f"surfaces must be one or more DentableSurface, got {surfaces!r}")
     surfaces = list(surfaces)
     if not surfaces or not all(isinstance(s, DentableSurface) for s in surfaces):
         raise ArgumentError(f"surfaces must be one or more DentableSurface, got {surfaces!r}")
@@ -531,15 +586,35 @@ def export_gltf(
             raise ArgumentError(
                 f"{argument} must have one entry per surface ({len(surfaces)}), got {len(values)}"
             )
-    library = None
-    bodies = []
-    for surface, name, look in zip(surfaces, names, chosen, strict=True):
-        if isinstance(look, str):
-            from dentdemo.model.materials import load_materials
+    from dentdemo.model.materials import load_materials
 
-            library = library or load_materials()
-            look = library.get(look, "looks").appearance
-        maps = surface._live("export_gltf()")
+    library = load_materials() if any(isinstance(look, str) for look in chosen) else None
+    appearances = [_appearance(f"looks[{i}]", look, library) for i, look in enumerate(chosen)]
+    every_maps = [surface._live("export_gltf()") for surface in surfaces]
+    for index, surface in enumerate(surfaces):
+        try:
+            trs(surface.model)  # a glTF node's pose: no shear
+        except DentdemoError as exc:
+            raise ArgumentError(f"surfaces[{index}].model: {exc}") from None
+    for surface in surfaces:
+        surface._gl.check_current("export_gltf()")
+    bodies = []
+    for surface, name, look, maps in zip(surfaces, names, appearances, every_maps, strict=True):
         part = dented_part(surface._gl, surface.mesh, look, maps)
         bodies.append(GltfBody(str(name), surface.model, (part,)))
     return write_gltf(target, bodies)
+
+
+def _appearance(name: str, look: object, library: MaterialLibrary | None) -> Appearance:
+    """`look` (an Appearance, or the name of a preset of `library`) as an Appearance, or an
+    error naming `name`."""
+    if isinstance(look, Appearance):
+        return look
+    if not isinstance(look, str) or library is None:
+        raise ArgumentError(
+            f"{name} must be an Appearance or a preset name, got {type(look).__name__}"
+        )
+    try:
+        return library.get(look, name).appearance
+    except ConfigError as exc:
+        raise ArgumentError(str(exc)) from None

@@ -7,14 +7,18 @@ which counts reads, so tests can prove that the simulation/carve/render loop rea
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import os
+import threading
 from dataclasses import dataclass, field
+from functools import cache
 from typing import Any
 
 import moderngl
 import numpy as np
 
-from dentdemo.errors import GLUnavailableError
+from dentdemo.errors import ContextError, GLUnavailableError
 
 REQUIRED_VERSION = 330
 #: Asked for first by a headless context: EGL on NVIDIA's driver gives exactly the version asked
@@ -105,6 +109,13 @@ class GLContext:
         Reads are for exports, benchmarks and tests, never in the frame loop."""
         self.ctx.finish()
 
+    def __post_init__(self) -> None:
+        owner(self.ctx)  # the context is current where it is made or first met
+
+    def check_current(self, what: str) -> None:
+        """Raise ContextError (naming `what`) unless this context is current in this thread."""
+        check_current(self.ctx, what)
+
     def make_current(self) -> None:
         """Make this context current again (after another context in the process was made or
         released: EGL has one current context per thread)."""
@@ -153,6 +164,91 @@ def parking_framebuffer(ctx: moderngl.Context) -> moderngl.Framebuffer:
     if "parking_fbo" not in store:
         store["parking_fbo"] = ctx.framebuffer([ctx.renderbuffer((1, 1))])
     return store["parking_fbo"]
+
+
+@dataclass(frozen=True)
+class Owner:
+    """Where a moderngl context lives: its native handle (what `current_native` gave while it
+    was current) and the thread it was made or first met in (by name, for messages)."""
+
+    native: tuple[str, int] | None
+    thread: str
+
+
+#: What `current_native` gives where dentdemo cannot ask which context is current (neither EGL
+#: nor GLX: Windows, macOS): no check is made there.
+UNSEEN = ("unseen", 0)
+
+
+@cache
+def _current_queries() -> tuple[tuple[str, Any], ...]:
+    """(API, its get-current-context function) for EGL and GLX, those this system has."""
+    found = []
+    for api, library, function in (
+        ("egl", "EGL", "eglGetCurrentContext"),
+        ("glx", "GL", "glXGetCurrentContext"),
+    ):
+        name = ctypes.util.find_library(library)
+        try:
+            query = getattr(ctypes.CDLL(name), function) if name else None
+        except (OSError, AttributeError):
+            query = None
+        if query is not None:
+            query.restype = ctypes.c_void_p
+            query.argtypes = []
+            found.append((api, query))
+    return tuple(found)
+
+
+def current_native() -> tuple[str, int] | None:
+    """The context current in this thread, as (API, native handle); None when none is;
+    UNSEEN where there is no way to ask."""
+    queries = _current_queries()
+    if not queries:
+        return UNSEEN
+    for api, query in queries:
+        handle = query()
+        if handle:
+            return (api, handle)
+    return None
+
+
+def owner(ctx: moderngl.Context) -> Owner:
+    """Where `ctx` lives, recorded the first time dentdemo meets it (a context is current
+    when it is made, and a host's must be when it first passes it: moderngl makes its objects
+    in whichever context is current). ContextError when none is current then."""
+    store = per_context(ctx)
+    if "owner" not in store:
+        native = current_native()
+        if native is None:
+            raise ContextError(_none_current("dentdemo", None))
+        store["owner"] = Owner(native, threading.current_thread().name)
+    return store["owner"]
+
+
+def check_current(ctx: moderngl.Context, what: str) -> None:
+    """Raise ContextError, naming `what` (the call), unless `ctx` is the context current in
+    this thread. dentdemo never makes a context current itself: a host gets back exactly the
+    current context it had, and its objects are never written through another's names."""
+    home = owner(ctx)
+    native = current_native()
+    if native == home.native or home.native == UNSEEN:
+        return
+    if native is None:
+        raise ContextError(_none_current(what, home))
+    raise ContextError(
+        f"{what}: another GL context is current, not the one these objects were made in; "
+        "make that one current first (dentdemo never switches contexts); nothing was done"
+    )
+
+
+def _none_current(what: str, home: Owner | None) -> str:
+    """The message for a call made in a thread where no GL context is current."""
+    made = f" (thread {home.thread!r} made its context)" if home is not None else ""
+    return (
+        f"{what}: no GL context is current in thread {threading.current_thread().name!r}: "
+        f"call dentdemo from the thread where its GL context is current{made}; nothing was done"
+    )
 
 
 #: The attribute of a moderngl.Context that holds `per_context`'s dict.

@@ -16,7 +16,7 @@ from typing import Any
 
 import moderngl
 
-from dentdemo.gl.context import parking_framebuffer
+from dentdemo.gl.context import check_current, parking_framebuffer
 from dentdemo.gl.library import gl_library as _gl
 from dentdemo.gl.passes import TEXTURE_UNITS, neutral
 
@@ -219,7 +219,10 @@ def _record(ctx: moderngl.Context, state: GLState) -> None:
 @contextmanager
 def preserved(ctx: moderngl.Context) -> Iterator[None]:
     """Run the body from `passes.neutral`, then give the host back its GL state and moderngl's
-    cached view of it (the bound framebuffer object and the rest `_record` names)."""
+    cached view of it (the bound framebuffer object and the rest `_record` names). ContextError
+    first, before any GL call, where `ctx` is not the context current in this thread: GL would
+    read another context's state (or none: zeros, in a thread with no current context)."""
+    check_current(ctx, "dentdemo")
     fbo = ctx.fbo
     state = capture()
     neutral(ctx)

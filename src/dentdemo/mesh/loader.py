@@ -7,6 +7,7 @@ import functools
 import io
 import json
 import math
+import os
 import signal
 import struct
 import subprocess
@@ -20,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from dentdemo.errors import ArgumentError, DentdemoError
+from dentdemo.errors import ArgumentError, DentdemoError, MissingFileError
 from dentdemo.mesh.mesh import Mesh, check_indices
 from dentdemo.mesh.normals import smooth_normals
 
@@ -154,15 +155,25 @@ def _failure(returncode: int, stderr: str) -> str:
 def load_mesh(path: str | Path, scale: float = 1.0) -> Mesh:
     """Load a triangle mesh file; its own texture coordinates are kept when they are a unique
     atlas, else it is re-atlased (one warning). A file is read (and re-atlased, and warned about)
-    once per content and scale: physics and drawing share the result."""
+    once per content and scale: physics and drawing share the result. Every failure is an
+    ArgumentError (a ValueError) naming the file; a missing one is also a FileNotFoundError."""
+    if not isinstance(path, str | os.PathLike):
+        raise ArgumentError(f"path must be a mesh file's name, got {type(path).__name__}")
     path = Path(path)
     if not (isinstance(scale, int | float) and math.isfinite(scale) and scale > 0):
         raise ArgumentError(f"{path}: scale must be a positive finite number, got {scale!r}")
     try:
         stat = path.stat()
+    except FileNotFoundError as exc:
+        raise MissingFileError(f"{path}: cannot load mesh ({exc.strerror})") from None
     except OSError as exc:
-        raise DentdemoError(f"{path}: cannot load mesh ({exc.strerror})") from None
-    return _load_mesh(path.resolve(), str(path), float(scale), stat.st_mtime_ns, stat.st_size)
+        raise ArgumentError(f"{path}: cannot load mesh ({exc.strerror})") from None
+    try:
+        return _load_mesh(path.resolve(), str(path), float(scale), stat.st_mtime_ns, stat.st_size)
+    except ArgumentError:
+        raise
+    except DentdemoError as exc:  # the file's content: not a mesh, corrupt, no triangles
+        raise ArgumentError(str(exc)) from None
 
 
 @functools.lru_cache(maxsize=32)

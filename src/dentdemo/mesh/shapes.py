@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from dentdemo.errors import ArgumentError
 from dentdemo.mesh import primitives
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.model.shapes import Box, Capsule, Cylinder, MeshFile, Plane, Plate, Shape, Sphere
@@ -105,7 +106,10 @@ def shape_mesh(shape: Shape, tessellation: Tessellation = SANDBOX) -> Mesh:
             return load_mesh(path, scale)
         case Plane():
             return primitives.plate(GROUND_PROXY_SIDE)
-    raise TypeError(f"not a shape: {shape!r}")
+    raise ArgumentError(
+        f"shape must be a Sphere, Box, Capsule, Cylinder or Plate, got {type(shape).__name__} "
+        f"{shape!r}"
+    )
 
 
 def plate_sides(plate: Plate) -> Mesh:
