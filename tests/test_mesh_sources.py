@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import trimesh
 
+import dentdemo
 from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.mesh.loader import check_uvs, load_mesh, mesh_from_triangles
 from dentdemo.mesh.mesh import Mesh
@@ -279,3 +280,41 @@ def test_an_atlas_without_an_interpreter_to_run_it_is_one_line(tmp_path, monkeyp
         _load_quietly(path)
     message = str(caught.value)
     assert str(path) in message and "xatlas could not be started" in message
+
+
+def test_a_triangle_with_no_uv_area_is_kept_by_a_reatlas(gl, tmp_path):
+    """A folded 4 x 4 grid whose triangle 13 has its three uvs on one line (issue 41, item 10:
+    Suzanne's triangle 1882 went missing from the mesh and its exports, silently, on ee6049f).
+    The one warning names it; the mesh is re-atlased and keeps all 32 triangles, each with area
+    in the atlas, each the caller's triangle (by source_vertex); a surface made of it draws and
+    exports all 32."""
+    pos, faces, uv = grid()
+    pos[:, 1] = 0.05 * np.sin(pos[:, 0] * 20.0)  # folded: no two triangles share a plane
+    soup = pos[faces].reshape(-1, 3)  # each triangle its own corners
+    soup_faces = np.arange(len(soup)).reshape(-1, 3)
+    soup_uv = uv[faces].reshape(-1, 2)
+    bad = 13
+    a, b = soup_uv[3 * bad], soup_uv[3 * bad + 1]
+    soup_uv[3 * bad + 2] = (a + b) / 2  # on the line through the other two
+    with pytest.warns(UserWarning) as caught:
+        mesh = mesh_from_triangles(soup, soup_faces, soup_uv, name="folded")
+    assert len(caught) == 1
+    assert str(caught[0].message) == (
+        "folded: texture coordinates are flat for triangle 13 (no area in the atlas); re-atlasing"
+    )
+    assert len(mesh.indices) == len(faces) == 32
+    t = mesh.uvs.astype(np.float64)[mesh.indices]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    assert (np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) > 1e-8).all()
+    ours = sorted(tuple(sorted(f)) for f in mesh.source_vertex[mesh.indices].tolist())
+    assert ours == sorted(tuple(sorted(f)) for f in soup_faces.tolist())
+    surface = dentdemo.DentableSurface(gl.ctx, mesh, 64)
+    try:
+        assert len(surface.mesh.indices) == 32
+        glb = dentdemo.export_gltf(tmp_path / "folded.glb", [surface]).read_bytes()
+        (length,) = struct.unpack("<I", glb[12:16])
+        document = json.loads(glb[20 : 20 + length])
+        primitive = document["meshes"][0]["primitives"][0]
+        assert document["accessors"][primitive["indices"]]["count"] == 3 * 32
+    finally:
+        surface.release()

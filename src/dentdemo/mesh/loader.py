@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dentdemo.errors import ArgumentError, DentdemoError, MissingFileError
-from dentdemo.mesh.mesh import Mesh, check_indices
+from dentdemo.mesh.mesh import DEGENERATE, Mesh, check_indices, doubled_areas
 from dentdemo.mesh.normals import smooth_normals
 
 #: Resolution of the raster used to find overlapping UV triangles.
@@ -43,10 +43,13 @@ class UVReport:
     overlapping: bool = False
     #: Share of sampled atlas cells covered by more than one triangle.
     overlap_fraction: float = 0.0
+    #: Triangles (by index) with an area in space and none in the atlas: no texel of the maps
+    #: would be theirs, so Mesh drops them (`flat_triangles`).
+    flat: tuple[int, ...] = ()
 
     @property
     def ok(self) -> bool:
-        return not (self.missing or self.tiled or self.overlapping)
+        return not (self.missing or self.tiled or self.overlapping or self.flat)
 
     def describe(self) -> str:
         parts = [
@@ -58,11 +61,20 @@ class UVReport:
             )
             if bad
         ]
+        if self.flat:
+            shown = ", ".join(map(str, self.flat[:5])) + (", ..." if len(self.flat) > 5 else "")
+            plural = "s" * (len(self.flat) > 1)
+            parts.append(f"flat for triangle{plural} {shown} (no area in the atlas)")
         return ", ".join(parts) or "unique"
 
 
-def check_uvs(uvs: NDArray[np.floating] | None, indices: NDArray[np.integer]) -> UVReport:
-    """Classify texture coordinates: missing, tiled (outside [0, 1]) or overlapping charts."""
+def check_uvs(
+    uvs: NDArray[np.floating] | None,
+    indices: NDArray[np.integer],
+    positions: NDArray[np.floating] | None = None,
+) -> UVReport:
+    """Classify texture coordinates: missing, tiled (outside [0, 1]) or overlapping charts, and
+    (given the positions) of no area for a triangle that has one in space."""
     if uvs is None or len(uvs) == 0:
         return UVReport(missing=True)
     uv = np.asarray(uvs, dtype=np.float64)
@@ -70,8 +82,19 @@ def check_uvs(uvs: NDArray[np.floating] | None, indices: NDArray[np.integer]) ->
         return UVReport(missing=True)
     eps = 1e-4
     tiled = bool((uv < -eps).any() or (uv > 1 + eps).any())
-    fraction = _overlap_fraction(uv, np.asarray(indices).reshape(-1, 3))
-    return UVReport(tiled=tiled, overlapping=fraction > 1e-3, overlap_fraction=fraction)
+    tris = np.asarray(indices).reshape(-1, 3)
+    fraction = _overlap_fraction(uv, tris)
+    flat = () if positions is None else tuple(flat_triangles(positions, uvs, tris).tolist())
+    return UVReport(tiled=tiled, overlapping=fraction > 1e-3, overlap_fraction=fraction, flat=flat)
+
+
+def flat_triangles(
+    positions: NDArray[np.floating], uvs: NDArray[np.floating], indices: NDArray[np.integer]
+) -> NDArray[np.int64]:
+    """Indices of the triangles with an area in space and none in the atlas, measured as Mesh
+    measures them when it drops degenerate triangles."""
+    space, atlas = doubled_areas(positions, uvs, indices)
+    return np.flatnonzero((space > DEGENERATE) & ~(atlas > DEGENERATE))
 
 
 def _overlap_fraction(uv: NDArray[np.float64], tris: NDArray[np.integer]) -> float:
@@ -438,7 +461,7 @@ def mesh_from_triangles(
     if coords is not None:
         coords = coords[source]
     points = points[source]
-    report = check_uvs(coords, triangles)
+    report = check_uvs(coords, triangles, points)
     texture_uvs = coords if base_colour_image is not None else None
     if not report.ok or coords is None:  # (no coordinates: report.ok is False)
         warnings.warn(

@@ -535,12 +535,8 @@ class Mesh:
 
     # -- clean-up ------------------------------------------------------------------------------
     def _drop_degenerate(self) -> None:
-        a, b, c = self.triangle_corners()
-        area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
-        t = self.uvs.astype(np.float64)[self.indices]
-        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-        uv_area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-        keep = (area > 1e-14) & (uv_area > 1e-14)
+        space, atlas = doubled_areas(self.positions, self.uvs, self.indices)
+        keep = (space > DEGENERATE) & (atlas > DEGENERATE)
         self.indices = np.ascontiguousarray(self.indices[keep])
 
     def _orient_outward(self) -> None:
@@ -549,6 +545,23 @@ class Mesh:
         vert_n = self.normals.astype(np.float64)[self.indices].sum(axis=1)
         flip = (face_n * vert_n).sum(axis=1) < 0
         self.indices[flip] = self.indices[flip][:, ::-1]
+
+
+#: A triangle whose doubled area (m^2 in space, uv units^2 in the atlas) is at most this has
+#: none there: Mesh drops it (no texel of the maps would be its own).
+DEGENERATE = 1e-14
+
+
+def doubled_areas(
+    positions: NDArray[np.floating], uvs: NDArray[np.floating], indices: NDArray[np.integer]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each triangle's doubled area in space and in the atlas, from float32 values (what Mesh
+    holds) computed in float64."""
+    p = np.asarray(positions, np.float32).astype(np.float64)[indices]
+    t = np.asarray(uvs, np.float32).astype(np.float64)[indices]
+    space = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    return space, np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
 
 
 def _check_arrays(mesh: Mesh) -> None:
