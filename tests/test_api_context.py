@@ -134,3 +134,26 @@ def test_a_call_from_another_thread_names_the_thread_rule(gl, tmp_path):
     assert plate.heights().min() < -0.003
     for thing in (carver, ball, plate):
         thing.release()
+
+
+def test_objects_of_a_released_context_release_without_gl(gl):
+    """Once a host releases a context (its objects go with it), releasing its surfaces and
+    carver makes no GL call: with another context current, one with objects of the same names,
+    those objects keep every byte and no GL error is left."""
+    a = create_headless()
+    try:
+        plate, ball = _pair(a.ctx)
+        carver = dentdemo.Carver(a.ctx)
+        assert carver.press(plate, ball, DOWN, 0.004)
+    finally:
+        a.release()
+    gl.make_current()
+    mine = [gl.ctx.texture((SIDE, SIDE), 4, bytes([k]) * SIDE * SIDE * 4) for k in range(24)]
+    before = [t.read() for t in mine]
+    for thing in (carver, ball, plate):
+        thing.release()
+        thing.release()  # again: nothing
+    assert [t.read() for t in mine] == before
+    assert gl.ctx.error == "GL_NO_ERROR"
+    for texture in mine:
+        texture.release()
