@@ -108,17 +108,28 @@ def test_patterned_tool_leaves_its_mirrored_pattern(gl, carver):
     u0, v0, du, dv = _cell(3)
     tu = u0 + (x[inside] / 0.1 + 0.5) * du
     tv = v0 + (z[inside] / 0.1 + 0.5) * dv
-    ti = np.clip((tu * size).astype(int), 0, size - 1)
-    tj = np.clip((tv * size).astype(int), 0, size - 1)
+    # The tool's surface is its height map bilinear between texel centres (as drawn): a stripe's
+    # edge ramps over one tool texel.
+    fu, fv = tu * size - 0.5, tv * size - 0.5
+    i0, j0 = np.floor(fu).astype(int), np.floor(fv).astype(int)
+    wu, wv = fu - i0, fv - j0
+
+    def at(j, i):
+        return pattern[np.clip(j, 0, size - 1), np.clip(i, 0, size - 1)]
+
+    bump = (1 - wv) * ((1 - wu) * at(j0, i0) + wu * at(j0, i0 + 1)) + wv * (
+        (1 - wu) * at(j0 + 1, i0) + wu * at(j0 + 1, i0 + 1)
+    )
     # The tool's bumps stand 1 mm proud of its face: where a bump is, the plate goes 1 mm deeper.
-    expected[inside] = -(depth + pattern[tj, ti])
+    expected[inside] = -(depth + bump)
     assert mesh.name == "box"
     assert np.mean(np.abs(h[inside] - expected[inside]) < 1e-5) > 0.97
     assert np.all(h[~inside & ((np.abs(x) > 0.052) | (np.abs(z) > 0.052))] == 0.0)
-    # Both stripe depths are present in about the pattern's proportions: a print, not a flat dent.
+    # Both stripe depths are present in about the pattern's proportions: a print, not a flat dent
+    # (the rest on the ramps between them).
     deep = np.isclose(h[inside], -0.003, atol=1e-5).mean()
     shallow = np.isclose(h[inside], -0.002, atol=1e-5).mean()
-    assert deep > 0.25 and shallow > 0.25 and deep + shallow > 0.97
+    assert deep > 0.25 and shallow > 0.25 and deep + shallow > 0.85
     release(s)
 
 

@@ -424,6 +424,46 @@ def test_cpu_reference_agrees_on_curved_and_edged_targets(gl, carver, bodies, ki
     assert np.abs(gn.astype(int) - cn.astype(int)).max() <= 2
 
 
+@pytest.mark.parametrize("cut_deg,tilt_deg", [(20.0, 25.0), (30.0, 35.0)])
+def test_a_flattened_ball_prints_its_cut_without_holes(gl, carver, bodies, cut_deg, tilt_deg):
+    """A ball flattened 18 mm by a slab (its map dented to the cut plane) and then pressed into a
+    plate across the cut's rim (ball_drop's lead ball, flattened 18 mm, left undented texels amid
+    the steel plate's next dent: pass 3 read its height texel by texel, a staircase of up to a
+    millimetre a texel where the cut meets the sphere). Oracle: no undented texel amid the dent;
+    the plate touches the cut solid's lowest point along the press (worked out here)."""
+    radius, cut, delta, side, size = 0.04, 0.018, 0.0015, 0.25, 256
+    ball = bodies.make(press_mesh(Sphere(radius), 1), 189)  # at the origin
+    m = np.array([math.sin(math.radians(cut_deg)), -math.cos(math.radians(cut_deg)), 0.0])
+    slab, _ = slab_on(bodies, radius * m, m)
+    carver.carve(ball, slab, ContactFrame(radius * m, -m), cut)
+    assert (heights(gl, ball) < -0.9 * cut).sum() > 50  # flattened
+    turn = rotation((0.0, 0.0, 1.0), tilt_deg)
+    down = turn[:3, :3] @ np.array([0.0, -1.0, 0.0])
+
+    def lowest(m_, x, z):
+        """Lowest y of the ball (centre 0) cut by (p . m_) <= R - cut along vertical lines."""
+        r2 = x**2 + z**2
+        plane = (radius - cut - m_[0] * x - m_[2] * z) / m_[1]  # m_[1] < 0: inside is above
+        y = np.maximum(-np.sqrt(np.maximum(radius**2 - r2, 0.0)), plane)
+        return np.where(r2 < radius**2, y, np.inf)
+
+    # The solid in the press's frame (turned back by the tilt): the plate touches its lowest point.
+    m_ = turn[:3, :3].T @ m
+    g = np.linspace(-1.0, 1.0, 1601) * radius
+    gx, gz = np.meshgrid(g, g)
+    low = lowest(m_, gx, gz)
+    i = np.argmin(low)
+    touch_local = np.array([gx.flat[i], low.flat[i], gz.flat[i]])  # ball frame turned back
+    touch = turn[:3, :3] @ touch_local
+    plate = bodies.make(press_mesh(Plate(side), 2), size, model=translation(touch) @ turn)
+    carver.carve(plate, ball, ContactFrame(touch, down), delta)
+    h = heights(gl, plate)
+    dented = h < DENTED
+    assert dented.sum() > 100
+    assert holes(h) == 0, f"{holes(h)} holes in {dented.sum()} dented texels"
+    assert 0.5 * delta < -h.min() < 1.5 * delta  # a dent of the press's depth, to the model
+
+
 # -- existing bumps -------------------------------------------------------------------------------
 def test_a_target_s_proud_bumps_meet_the_tool(gl, carver, bodies):
     # A plate whose map carries bumps up to 1 mm proud, pressed by a ball 0.5 mm past first touch

@@ -1,7 +1,8 @@
 #version 330 core
 // ---- Pass 3: the tool's extent along each view line ---------------------------------------------
-// The tool's faces, both sides, each depth moved by the tool's own height map (bump-to-depth; a
-// built-in sphere or capsule: where the view line enters or leaves its smooth surface), blended
+// The tool's faces, both sides, each depth moved by the tool's own height map (bump-to-depth, the
+// height bilinear between texels as the renderer draws it; a built-in sphere or capsule: where
+// the view line enters or leaves its smooth surface), blended
 // into one RGBA32F pixel per view line without a depth test: red keeps the farthest back face
 // (MAX: the deepest point the tool reaches along the view), green the coverage (MAX: 1 where the
 // tool is), alpha the nearest front face (MIN). Pass 4 compares the back with every target texel
@@ -20,20 +21,18 @@ out vec4 f_tool;  // (back view depth m, coverage 1, 0, front view depth m)
 #include "quad_uv.glsl"
 
 // The bumped view depth where the pixel's view line enters (or leaves) the solid.
-float bumped_at(vec3 line, float depth, ivec2 size) {
+float bumped_at(vec3 line, float depth) {
     vec3 p = line + u_forward * depth, n;
     swept_snap(p, n);
-    float h = texelFetch(u_height, texel_of(quad_uv(p), size), 0).r;
-    return bumped_depth(depth, h, n, u_forward);
+    return bumped_depth(depth, height_at(u_height, quad_uv(p)), n, u_forward);
 }
 
 void main() {
-    ivec2 size = textureSize(u_height, 0);
     vec3 line = camera_line(gl_FragCoord.xy);
     float enter = swept_view_depth(line, -1e30, false, u_eye, u_forward);
     if (enter < -1e29) discard;  // the view line misses the solid
     float leave = swept_view_depth(line, enter, true, u_eye, u_forward);
-    f_tool = vec4(bumped_at(line, leave, size), 1.0, 0.0, bumped_at(line, enter, size));
+    f_tool = vec4(bumped_at(line, leave), 1.0, 0.0, bumped_at(line, enter));
 }
 #else
 in vec2 v_uv;
@@ -63,12 +62,11 @@ void on_plane(inout float depth, inout vec2 uv, inout vec3 n) {
 }
 
 void main() {
-    ivec2 size = textureSize(u_height, 0);
     float depth = v_depth;
     vec2 uv = v_uv;
     vec3 n = normalize(v_normal);
     on_plane(depth, uv, n);
-    float h_tool = texelFetch(u_height, texel_of(uv, size), 0).r;
+    float h_tool = height_at(u_height, uv);
     bool back = !gl_FrontFacing;
 #if SWEPT  // a built-in sphere or capsule: where the view line enters or leaves its smooth surface
     {
