@@ -315,13 +315,16 @@ def test_a_trimesh_without_uvs_is_reatlased_and_maps_back(gl):
 def test_every_entry_point_s_bad_argument_is_a_value_error(gl, tmp_path):
     """The README's promise, at the entry points it did not hold for on ee6049f: export_gltf to
     x.obj raised DentdemoError, an unknown look ConfigError, load_mesh of a missing file
-    DentdemoError and shape_mesh of a non-shape TypeError, none of them a ValueError. A missing
-    mesh file is also a FileNotFoundError. Nothing is written."""
+    DentdemoError and shape_mesh of a non-shape TypeError, none of them a ValueError; a look out
+    of range was written (roughness 5) or crashed. A missing mesh file is also a
+    FileNotFoundError. Nothing is written."""
     (tmp_path / "words.obj").write_text("these are words, not vertices\n")
     plate = dentdemo.DentableSurface(gl.ctx, PLATE, 64)
     sheared = dentdemo.DentableSurface(gl.ctx, PLATE, 64)
     sheared.model = np.array([[1.0, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
     glb = tmp_path / "a.glb"
+    red = dentdemo.Appearance(base_colour="red")  # type: ignore[arg-type]
+    rough, shiny = dentdemo.Appearance(roughness=5.0), dentdemo.Appearance(surface="shiny")
     cases = [
         (lambda: dentdemo.load_mesh(tmp_path / "absent.obj"), ("absent.obj", "cannot load mesh")),
         (lambda: dentdemo.load_mesh(tmp_path / "words.obj"), ("words.obj", "no triangles")),
@@ -334,6 +337,15 @@ def test_every_entry_point_s_bad_argument_is_a_value_error(gl, tmp_path):
         (lambda: dentdemo.export_gltf(glb, plate), ("surfaces", "DentableSurface")),
         (lambda: dentdemo.export_gltf(glb, [plate], looks=["unobtainium"]), ("looks[0]",)),
         (lambda: dentdemo.export_gltf(glb, [plate], looks=[3]), ("looks[0]", "int")),
+        (
+            lambda: dentdemo.export_gltf(glb, [plate], looks=[red]),
+            ("looks[0].base_colour", "'red'"),
+        ),
+        (lambda: dentdemo.export_gltf(glb, [plate], looks=[rough]), ("looks[0].roughness", "5.0")),
+        (
+            lambda: dentdemo.export_gltf(glb, [plate], looks=[shiny]),
+            ("looks[0].surface", "'shiny'"),
+        ),
         (lambda: dentdemo.export_gltf(glb, [plate, sheared]), ("surfaces[1].model", "shear")),
     ]
     for call, fragments in cases:

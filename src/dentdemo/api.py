@@ -37,7 +37,8 @@ from dentdemo.gl.state import preserved
 from dentdemo.gpu.maps import SurfaceMaps
 from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.mesh import Mesh
-from dentdemo.model.materials import Appearance, MaterialLibrary
+from dentdemo.model.materials import SURFACES, Appearance, MaterialLibrary
+from dentdemo.model.materials_keys import NUMBER_KEYS
 
 
 def _vector(name: str, value: object) -> NDArray[np.float64]:
@@ -609,7 +610,7 @@ def _appearance(name: str, look: object, library: MaterialLibrary | None) -> App
     """`look` (an Appearance, or the name of a preset of `library`) as an Appearance, or an
     error naming `name`."""
     if isinstance(look, Appearance):
-        return look
+        return _checked_look(name, look)
     if not isinstance(look, str) or library is None:
         raise ArgumentError(
             f"{name} must be an Appearance or a preset name, got {type(look).__name__}"
@@ -618,3 +619,29 @@ def _appearance(name: str, look: object, library: MaterialLibrary | None) -> App
         return library.get(look, name).appearance
     except ConfigError as exc:
         raise ArgumentError(str(exc)) from None
+
+
+def _checked_look(name: str, look: Appearance) -> Appearance:
+    """`look` when every field is in its range (the materials file's), else an error naming
+    `name`, the field and its value."""
+    colour = look.base_colour
+    try:
+        rgb = np.array(colour, dtype=np.float64)
+    except (TypeError, ValueError):
+        rgb = np.zeros(0)
+    if rgb.shape != (3,) or not ((rgb >= 0) & (rgb <= 1)).all():
+        raise ArgumentError(
+            f"{name}.base_colour must be 3 numbers in [0, 1] (linear RGB), got {colour!r}"
+        )
+    for key in ("metalness", "roughness"):
+        value, low, high = getattr(look, key), NUMBER_KEYS[key].low, NUMBER_KEYS[key].high
+        real = isinstance(value, numbers.Real) and not isinstance(value, bool)
+        if not (real and low is not None and high is not None and low <= value <= high):
+            raise ArgumentError(
+                f"{name}.{key} must be a number in [{low:g}, {high:g}], got {value!r}"
+            )
+    if look.surface not in SURFACES:
+        raise ArgumentError(
+            f"{name}.surface must be one of {', '.join(SURFACES)}, got {look.surface!r}"
+        )
+    return look
