@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 import dentdemo
+from dentdemo.carve.carver import Carver, CarverOptions
 from dentdemo.carve.surface import map_size_for
 from dentdemo.carve.undo import UndoLog
 from dentdemo.gl.context import create_headless
@@ -51,8 +52,13 @@ def main() -> None:
     with_gpu: dict[bool, list[float]] = {True: [], False: []}
     sizes: list[int] = []
 
+    # The public carver's own, with the log and without (options are fixed at construction).
+    inners = {
+        on: Carver(inner.gl, CarverOptions(undo_log=log if on else None)) for on in (True, False)
+    }
+
     def hit(with_log: bool, finish: bool) -> None:
-        inner.undo_log = log if with_log else None
+        carver._carver = inners[with_log]
         x, z = rng.uniform(-0.2, 0.2, 2)
         ball.model = np.eye(4)
         ball.model[:3, 3] = (x, R, z)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import Carver
+from dentdemo.carve.carver import Carver, CarverOptions, _Switches
 from dentdemo.model.shapes import Box, Capsule, Cylinder, Plate, Sphere
 from surface_helpers import (
     DENTED,
@@ -51,7 +51,7 @@ def _maps(gl, body) -> tuple[np.ndarray, np.ndarray]:
 @pytest.mark.parametrize("max_resolution", [1023, 40], ids=["one-batch", "atlas-overflow"])
 def test_disjoint_hits_in_a_batch_equal_one_by_one(gl, max_resolution):
     bodies = Bodies(gl)
-    carver = Carver(gl, max_resolution=max_resolution)
+    carver = Carver(gl, CarverOptions(max_resolution=max_resolution))
     try:
         depths = [0.004, 0.006, 0.003, 0.008, 0.005, 0.007]
         batched_plate, batched_balls = _scene(bodies, len(SPOTS))
@@ -277,19 +277,18 @@ def test_spheres_drawn_as_quads_carve_as_their_facets_did(gl, bodies, kind, degr
     """Passes 2 and 3 draw a built-in sphere or capsule as one quad over its extent and find its
     exact surface per pixel; the dents match those of the solid drawn as its facets (which found
     the same exact surface within each facet's pixels), to 1e-6 m, on both bodies."""
-    carver = Carver(gl)
-    try:
-        results = []
-        for quads in (False, True):
-            carver.swept_quads = quads
+    results = []
+    for quads in (False, True):
+        carver = Carver(gl, _switches=_Switches(swept_quads=quads))
+        try:
             target, tool, contact, depth, tool_depth = _sphere_press(bodies, kind, degrees)
             assert carver.carve(target, tool, contact, depth, tool_depth)
             results.append((heights(gl, target), heights(gl, tool)))
-        for facets, quad in zip(*results, strict=True):
-            assert (quad < DENTED).sum() > 20
-            assert float(np.abs(facets - quad).max()) <= 1e-6
-    finally:
-        carver.release()
+        finally:
+            carver.release()
+    for facets, quad in zip(*results, strict=True):
+        assert (quad < DENTED).sum() > 20
+        assert float(np.abs(facets - quad).max()) <= 1e-6
 
 
 @pytest.mark.parametrize("shape", ["sphere", "capsule-end", "capsule-side"])
@@ -298,15 +297,14 @@ def test_a_dented_sphere_drawn_as_a_quad_reads_its_own_heights(gl, bodies, shape
     capsule_uv.glsl), the facet path from the facet's uv: with heights already on the tool (a
     smooth pattern, up to 1 mm), the two give the same dent in the plate where they pick the
     same texel, and never differ by more than the pattern changes over one texel."""
-    carver = Carver(gl)
     size = 256
     u = (np.arange(size) + 0.5) / size
     pattern = -0.0005 * (1 + np.sin(6 * np.pi * u)[None, :] * np.sin(4 * np.pi * u)[:, None])
     step = 0.0005 * 6 * np.pi / size * 1.5  # the pattern's largest change over a texel, and some
-    try:
-        results = []
-        for quads in (False, True):
-            carver.swept_quads = quads
+    results = []
+    for quads in (False, True):
+        carver = Carver(gl, _switches=_Switches(swept_quads=quads))
+        try:
             target = bodies.make(press_mesh(Plate(0.5), 2), 512)
             solid = Sphere(0.04) if shape == "sphere" else Capsule(0.04, 0.06)
             tool = bodies.make(press_mesh(solid, 2), size, initial_height=pattern)
@@ -319,13 +317,13 @@ def test_a_dented_sphere_drawn_as_a_quad_reads_its_own_heights(gl, bodies, shape
                 tool.model = translation((0.0, 0.04, 0.0))
             carver.carve(target, tool, ContactFrame(np.zeros(3), DOWN), 0.006)
             results.append(heights(gl, target))
-        diff = np.abs(results[0] - results[1])
-        dented = results[1] < DENTED
-        assert dented.sum() > 100
-        assert float(np.median(diff[dented])) <= 1e-6
-        assert float(diff.max()) <= step
-    finally:
-        carver.release()
+        finally:
+            carver.release()
+    diff = np.abs(results[0] - results[1])
+    dented = results[1] < DENTED
+    assert dented.sum() > 100
+    assert float(np.median(diff[dented])) <= 1e-6
+    assert float(diff.max()) <= step
 
 
 _SQRT_HALF = math.sqrt(0.5)
@@ -353,8 +351,7 @@ def test_a_convex_target_needs_no_address_map(gl, case):
     try:
         results = []
         for every in (True, False):
-            carver = Carver(gl)
-            carver.address_every_target = every
+            carver = Carver(gl, CarverOptions(address_every_target=every))
             drawn: list[str] = []
             passes = carver._camera_passes
 
@@ -461,7 +458,7 @@ def test_the_hosts_work_runs_once_while_the_gathers_are_drawn(gl, monkeypatch):
     from dentdemo.carve import carver as carver_module
 
     bodies = Bodies(gl)
-    carver = Carver(gl, max_resolution=20)  # an atlas of 64 x 32: 3 tiles a part
+    carver = Carver(gl, CarverOptions(max_resolution=20))  # an atlas of 64 x 32: 3 tiles a part
     try:
         plate, balls = _scene(bodies, len(SPOTS))
         presses = _presses(plate, balls, SPOTS, [0.004] * len(SPOTS))
@@ -614,3 +611,38 @@ def test_plan_many_keeps_each_presses_directions(gl) -> None:
     finally:
         carver.release()
         bodies.release()
+
+
+def test_a_carver_is_configured_once_by_frozen_options(gl):
+    """What a Carver does is fixed when it is made: none of the eight flags it had is an
+    attribute to set, its options cannot be changed or replaced, and a Press names its fields
+    and is still a 5-tuple."""
+    import dataclasses
+
+    from dentdemo.carve.carver import Press
+
+    carver = Carver(gl, CarverOptions(keep_host_state=False, max_resolution=64))
+    try:
+        flags = {
+            "swept_quads",
+            "loose_camera",
+            "rect_texels_per_triangle",
+            "address_every_target",
+            "exact_lists",
+            "keep_host_state",
+            "undo_log",
+            "pass_timer",
+        }
+        assert not flags & {name for name in vars(carver) if not name.startswith("_")}
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            carver.options.keep_host_state = True  # type: ignore[misc]
+        with pytest.raises(AttributeError):
+            carver.options = CarverOptions()  # type: ignore[misc]
+        assert carver.options.keep_host_state is False and carver.max_resolution == 64
+        # Its atlas: two 64-pixel cameras side by side, a pixel apart (129), to a power of two.
+        assert carver.scratch.size == (256, 128)
+    finally:
+        carver.release()
+    press = Press("target", "tool", "contact", 0.004)  # type: ignore[arg-type]
+    assert press.depth == 0.004 and press.tool_depth == 0.0
+    assert tuple(press) == ("target", "tool", "contact", 0.004, 0.0)

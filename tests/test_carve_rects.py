@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import Carver
+from dentdemo.carve.carver import Carver, CarverOptions, _Switches
 from dentdemo.mesh.primitives import sphere
 from surface_helpers import (
     DENTED,
@@ -75,8 +75,7 @@ def test_a_sphere_as_texel_rectangles_carves_as_its_triangles_did(gl, bodies, ca
     ball (a sphere too, dented as well) or a slab."""
     results = []
     for rects in (0.0, math.inf):  # never, always
-        carver = Carver(gl)
-        carver.rect_texels_per_triangle = rects
+        carver = Carver(gl, _switches=_Switches(rect_texels_per_triangle=rects))
         try:
             target, tool, contact = _press(bodies, case)
             assert len(carver.carve(target, tool, contact, 0.004, 0.002)) == 2
@@ -123,14 +122,16 @@ def test_passes_4_and_5_over_a_sphere_draw_two_triangles_whatever_its_tessellati
     counts: dict[tuple[bool, int], list[int]] = {}
     for rects in (True, False):
         for grid in (12, 32, 96):
-            carver = Carver(gl)
-            carver.rect_texels_per_triangle = math.inf if rects else 0.0
             drawn: list[int] = []
 
             def counted(name: str, drawn=drawn):  # noqa: ANN202
                 return _Primitives(gl.ctx, drawn) if name in ("gather", "normals") else _Null()
 
-            carver.pass_timer = counted
+            carver = Carver(
+                gl,
+                CarverOptions(pass_timer=counted),
+                _switches=_Switches(rect_texels_per_triangle=math.inf if rects else 0.0),
+            )
             try:
                 target = bodies.make(sphere(0.04, grid), 256)
                 tool, n = slab_on(bodies, (0.0, 0.04, 0.0), (0, 1, 0))
@@ -156,10 +157,12 @@ def test_rectangles_are_drawn_where_the_triangles_are_fine(gl, bodies, grid):
     worked out here from the triangles' texture coordinates (a cube face is a chart: its 2 n²
     triangles are consecutive)."""
     size = 256
-    carver = Carver(gl)
     drawn: list[int] = []
-    carver.pass_timer = lambda name: (  # noqa: E731
-        _Primitives(gl.ctx, drawn) if name == "gather" else _Null()
+    carver = Carver(
+        gl,
+        CarverOptions(
+            pass_timer=lambda name: _Primitives(gl.ctx, drawn) if name == "gather" else _Null()
+        ),
     )
     try:
         target = bodies.make(sphere(0.05, grid), size)

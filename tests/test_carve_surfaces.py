@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import Carver
+from dentdemo.carve.carver import Carver, _Switches
 from dentdemo.carve.constants import MIN_COS
 from dentdemo.carve.cpu_reference import CpuReference
 from dentdemo.mesh.primitives import CUBE_FACES, _cell
@@ -367,8 +367,7 @@ def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies, subd
 def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
     results = {}
     for loose in (False, True):
-        carver = Carver(gl)
-        carver.loose_camera = loose
+        carver = Carver(gl, _switches=_Switches(loose_camera=loose))
         try:
             if case == "corner-plate":
                 target = bodies.make(press_mesh(Plate(0.2), 2), 256)

@@ -13,12 +13,14 @@ import os
 import weakref
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import replace
 
 import moderngl
 import numpy as np
 import pytest
 
 import dentdemo
+from dentdemo.carve.carver import Carver
 
 #: The press: a ball of radius R (m) posed touching the top of a plate of side S (m) at the
 #: origin, pressed D (m) into it (and dented TOOL_D m itself).
@@ -349,10 +351,12 @@ def test_a_carver_that_gives_no_state_back_dents_as_under_clean_state(gl):
     ball.model = np.eye(4)
     ball.model[1, 3] = R
     carver = dentdemo.Carver(ctx)
+    inner = carver._live()
+    carver._carver = Carver(inner.gl, replace(inner.options, keep_host_state=False))
+    inner.release()
     contact = dentdemo.Contact((0, 0, 0), (0, -1, 0))
     try:
         with hostile_state(ctx, _SAMPLER_FILTERS["trilinear"]):
-            carver._live().keep_host_state = False
             carver.press(plate, ball, contact, D, TOOL_D)
             left = {name: bool(gl_raw.glIsEnabled(_CAPS[name])) for name in _NEUTRAL_OFF}
             heights, normals = plate.heights(), host_read(plate.normal)

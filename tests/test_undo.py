@@ -6,6 +6,7 @@ the tests compare with are read back by the tests themselves, before each hit.""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import moderngl
@@ -14,6 +15,7 @@ import pytest
 
 import dentdemo
 from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import Carver
 from dentdemo.carve.undo import (
     UNDO_BYTES,
     UNDO_DEPTH,
@@ -43,7 +45,7 @@ def scene(gl):
     plate = dentdemo.DentableSurface(gl.ctx, PLATE, 128)
     ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
     carver = dentdemo.Carver(gl.ctx)
-    log = carver._live().undo_log
+    log = carver._live().options.undo_log
     assert log is not None and (log.depth, log.budget) == (UNDO_DEPTH, UNDO_BYTES)
     log.clear()
     yield plate, ball, carver
@@ -159,8 +161,7 @@ def test_snapshot_rectangles_hold_every_texel_a_hit_writes(gl):
     box = dentdemo.DentableSurface(gl.ctx, BOX, 256)
     ball = dentdemo.DentableSurface(gl.ctx, BALL, 64)
     carver = dentdemo.Carver(gl.ctx)
-    log = UndoLog(carver._live().gl)
-    carver._live().undo_log = log
+    log = _logged(carver, UndoLog(carver._live().gl))
     try:
         for point, direction in (
             ((0.1, 0.1, 0.0), (-1.0, -1.0, 0.0)),  # edge: two faces
@@ -200,10 +201,17 @@ def test_merged_rects_keep_far_boxes_apart():
     assert merged_rects(np.zeros((0, 4), np.int64)) == []
 
 
-def _own_log(carver, depth: int, budget: int) -> UndoLog:
-    log = UndoLog(carver._live().gl, depth=depth, budget=budget)
-    carver._live().undo_log = log
+def _logged(carver, log: UndoLog) -> UndoLog:
+    """`log` in place of the context's for the public `carver` (its inner carver made anew:
+    options are fixed at construction)."""
+    inner = carver._live()
+    carver._carver = Carver(inner.gl, replace(inner.options, undo_log=log))
+    inner.release()
     return log
+
+
+def _own_log(carver, depth: int, budget: int) -> UndoLog:
+    return _logged(carver, UndoLog(carver._live().gl, depth=depth, budget=budget))
 
 
 def _entry_bytes(entry) -> int:
@@ -685,8 +693,7 @@ def test_a_plates_snapshot_is_its_dent_not_its_triangles(gl, plate_tilt, press_t
     plate = dentdemo.DentableSurface(gl.ctx, ground, size)
     ball = dentdemo.DentableSurface(gl.ctx, BALL, ball_size)
     carver = dentdemo.Carver(gl.ctx)
-    log = UndoLog(carver._live().gl)
-    carver._live().undo_log = log
+    log = _logged(carver, UndoLog(carver._live().gl))
     fit = plate_uv_map(ground)
     a, t = math.radians(plate_tilt), math.radians(press_tilt)
     rotation = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])

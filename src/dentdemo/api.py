@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import CarveBody
+from dentdemo.carve.carver import CarveBody, CarverOptions, Press
 from dentdemo.carve.carver import Carver as _Carver
 from dentdemo.carve.surface import (
     MAX_MAP_SIZE,
@@ -384,8 +384,8 @@ class Carver:
         self._ctx = ctx
         _wrap(ctx).check_current("Carver()")
         with preserved(ctx):
-            self._carver: _Carver | None = _Carver(_wrap(ctx))
-        self._carver.undo_log = _undo_log(ctx)
+            options = CarverOptions(undo_log=_undo_log(ctx))
+            self._carver: _Carver | None = _Carver(_wrap(ctx), options)
 
     @_in_context
     def press(
@@ -444,7 +444,7 @@ class Carver:
         carver = self._live()
         planned = carver.plan_many(
             [
-                (
+                Press(
                     target._body("target"),
                     tool._body("tool"),
                     ContactFrame(contact.point, contact.direction),
@@ -462,7 +462,7 @@ class Carver:
         """Take back the last `press` or `press_many` call of this context (both surfaces of
         each press, bit for bit): True, or False with nothing done when no call is left to
         undo (none yet, all undone, or older than the 64 kept)."""
-        log = self._live().undo_log
+        log = self._live().options.undo_log
         return log is not None and log.undo()
 
     @_in_context

@@ -492,7 +492,7 @@ class DemoController:
     def render(self, target: moderngl.Framebuffer | None = None) -> moderngl.Framebuffer:
         """Describe and draw the frame into `target` (default: the renderer's output)."""
         # The address-map view shows pass 2, which convex targets otherwise leave out.
-        self.sim.carver.address_every_target = self.options.address_map
+        self.sim.draw_every_address(self.options.address_map)
         frame = describe(self.sim, self.scenery, self.camera, self.options)
         return self.renderer.render(frame, target)
 

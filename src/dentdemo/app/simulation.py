@@ -17,7 +17,7 @@ from dentdemo import outputs
 from dentdemo.app.reshape import DentProxy, proxy_for, shape_field
 from dentdemo.app.shared import Shared
 from dentdemo.carve.camera import ContactFrame
-from dentdemo.carve.carver import CarveBody, Carver, Press
+from dentdemo.carve.carver import CarveBody, Carver, CarverOptions, Press
 from dentdemo.carve.surface import create_maps, load_height_png, map_size_for
 from dentdemo.carve.undo import UNDO_DEPTH, UndoLog, restore_pristine
 from dentdemo.gl.context import GLContext
@@ -110,14 +110,12 @@ class Simulation:
         #: Most carves per frame; the rest wait in `queue` for later frames (none is dropped).
         self.carve_budget = carve_budget
         self.time_scale = 1.0
-        self.carver = Carver(gl)
-        # The sandbox owns its context, and its renderer and panel set the state each of their
-        # passes draws with: no host state to give back after each frame's carve.
-        self.carver.keep_host_state = False
         #: Each carved batch (one frame's queue) snapshotted on the GPU for undo (carve/undo.py);
         #: not saved with the state: a reset or a load empties it.
         self.undo_log = UndoLog(gl)
-        self.carver.undo_log = self.undo_log
+        # The sandbox owns its context, and its renderer and panel set the state each of their
+        # passes draws with: no host state to give back after each frame's carve.
+        self.carver = Carver(gl, CarverOptions(keep_host_state=False, undo_log=self.undo_log))
         self.queue: deque[CarveRequest] = deque()
         self.stats = SimStats()
         self.last_impacts: list[Impact] = []
@@ -230,6 +228,15 @@ class Simulation:
             body.maps.max_dent_depth = spec.material.max_dent_depth
             if body_id in self.world.bodies:
                 self.world.set_spec(spec)
+
+    def draw_every_address(self, on: bool) -> None:
+        """Whether the carve draws pass 2 for every target (the address-map debug view) or only
+        where pass 4 needs it: a carver made with that option replaces the one before (their
+        options are fixed), its shader variants compiled as the next carves draw them."""
+        if self.carver.options.address_every_target != on:
+            old = self.carver
+            self.carver = Carver(self.gl, replace(old.options, address_every_target=on))
+            old.release()
 
     def address_map(self) -> tuple[moderngl.Texture, tuple[int, int]] | None:
         """The last carve's address map and its size in pixels (the address-map debug view),
@@ -392,7 +399,7 @@ class Simulation:
         tool = CarveBody(b.gpu_mesh, b.maps, request.model_b)
         # B moves into A along -N; the carve finds the surface point of A nearest to the contact.
         contact = ContactFrame(impact.point, -impact.normal)
-        return request, (target, tool, contact, request.depth_a, request.depth_b)
+        return request, Press(target, tool, contact, request.depth_a, request.depth_b)
 
     def _drop_body(self, body_id: str) -> None:
         self.dents.pop(body_id, None)

@@ -25,6 +25,8 @@ from dentdemo.carve.carver import (
     MAX_RESOLUTION,
     CarveBody,
     Carver,
+    CarverOptions,
+    Press,
     atlas_size,
 )
 from dentdemo.carve.cpu_reference import CpuReference
@@ -101,8 +103,8 @@ def _press_setup(gl: GLContext, size: int, side: float = PRESS["plate_side_m"]):
     )
 
 
-def _press(setup) -> tuple:
-    return (setup.target, setup.tool, setup.contact, PRESS["depth_m"], PRESS["tool_depth_m"])
+def _press(setup) -> Press:
+    return Press(setup.target, setup.tool, setup.contact, PRESS["depth_m"], PRESS["tool_depth_m"])
 
 
 def same_dent(gl: GLContext, plates: list[tuple[float, int]], reps: int) -> list[dict]:
@@ -138,7 +140,7 @@ BURSTS = [1, 4, 16, 64]
 CPU_BURST_MAX = 16
 
 
-def _burst_presses(setup, hits: int) -> list[tuple]:
+def _burst_presses(setup, hits: int) -> list[Press]:
     """The bench's press at `hits` spots on a grid over the plate's middle, each with the ball
     posed at first touch there (one ball body: its own dents overlap, as they would)."""
     side = math.ceil(math.sqrt(hits))
@@ -153,7 +155,9 @@ def _burst_presses(setup, hits: int) -> list[tuple]:
         model[:3, 3] += offset
         point = np.asarray(contact.point, dtype=np.float64) + offset
         moved = CarveBody(tool.gpu_mesh, tool.maps, model)
-        presses.append((target, moved, ContactFrame(point, contact.direction), depth, tool_depth))
+        presses.append(
+            Press(target, moved, ContactFrame(point, contact.direction), depth, tool_depth)
+        )
     return presses
 
 
@@ -278,15 +282,15 @@ def per_hit(
         press = _press(gpu_setup)
         gpu_ms, _ = median_ms(partial(carver.carve, *press), finish, reps)
         timer = PassTimer(gl.ctx)
-        carver.pass_timer = timer
+        timed = Carver(gl, CarverOptions(pass_timer=timer))
         for _ in range(reps):
             interrupt.check()
-            carver.carve(*press)
+            timed.carve(*press)
             timer.end_hit()
-        carver.pass_timer = None
         for name, ms in timer.medians().items():
             passes.append({"map_size": size, "pass": name, "ms": ms, "gpu_timer": timer.gpu})
-        pixels = [job.camera.pixels for job in carver.last_jobs]
+        pixels = [job.camera.pixels for job in timed.last_jobs]
+        timed.release()
         row = {
             "map_size": size,
             "gpu_ms": gpu_ms,

@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field, replace
 from itertools import islice
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import moderngl
 import numpy as np
@@ -119,9 +119,17 @@ class CarveJob:
         )
 
 
-#: One hit for `Carver.carve_many`: target, tool (posed at first touch), contact, the target's
-#: and the tool's dent depths (metres).
-Press = tuple["CarveBody", "CarveBody", ContactFrame, float, float]
+class Press(NamedTuple):
+    """One hit for `Carver.carve_many` (a plain 5-tuple in this order does as well)."""
+
+    target: CarveBody
+    #: Posed at first touch.
+    tool: CarveBody
+    contact: ContactFrame
+    #: The target's dent depth, metres.
+    depth: float
+    #: The tool's dent depth, metres.
+    tool_depth: float = 0.0
 
 
 #: Pixels a collision camera has at most a side (beyond, its pixels grow).
@@ -275,13 +283,63 @@ _SURFACE_PASSES = {
 }
 
 
-class Carver:
-    """Carves dents into SurfaceMaps. One per GL context."""
+@dataclass(frozen=True)
+class CarverOptions:
+    """How a `Carver` carves, fixed when it is made."""
 
-    def __init__(self, gl: GLContext, max_resolution: int = MAX_RESOLUTION) -> None:
+    #: Pixels a collision camera has at most a side (beyond, its pixels grow); the scratch
+    #: atlas holds two of the largest side by side.
+    max_resolution: int = MAX_RESOLUTION
+    #: Give the host its GL state back after each batch (`gl.state.preserved`). False for
+    #: the sandbox, which owns its context and whose every pass sets the state it draws
+    #: with: the batch then starts from `neutral` state and leaves it, and the capture and
+    #: restore of the host's state are saved.
+    keep_host_state: bool = True
+    #: Snapshots each batch's footprints before it is carved (carve/undo.py), or None.
+    undo_log: UndoLog | None = None
+    #: Draw pass 2 for every target, also for convex ones that pass 4 does not need it for
+    #: (the address-map debug view).
+    address_every_target: bool = False
+    #: Per-triangle lists of what each pass draws (True), or whole clusters (False); None: per
+    #: triangle on a software rasteriser, whose vertex work is CPU work, whole clusters on a
+    #: GPU, where planning is the cost of a hit.
+    exact_lists: bool | None = None
+    #: Wraps each pass when set (the benchmark's GPU timer queries); names as in docs/carve.md.
+    pass_timer: Callable[[str], AbstractContextManager] | None = None
+
+
+@dataclass(frozen=True)
+class _Switches:
+    """Other ways of drawing the same dents, which the tests compare with the usual ones (not
+    an option: each gives what the default gives, to rounding, at another cost)."""
+
+    #: Draw built-in spheres and capsules in passes 2 and 3 as one quad each (False: their
+    #: facets).
+    swept_quads: bool = True
+    #: Draw a built-in sphere's chart texels in passes 4 and 5 as rectangles of texels, each
+    #: finding its facet from the sphere's atlas, where its footprint's triangles hold at most
+    #: this many texels of their boxes each (0: never; inf: always).
+    rect_texels_per_triangle: float = RECT_TEXELS_PER_TRIANGLE
+    #: Bound the camera by whole bodies instead of the footprint (tests of the bound).
+    loose_camera: bool = False
+
+
+class Carver:
+    """Carves dents into SurfaceMaps. One per GL context (or more: each has its scratch atlas),
+    configured once by its `CarverOptions`."""
+
+    def __init__(
+        self,
+        gl: GLContext,
+        options: CarverOptions = CarverOptions(),
+        *,
+        _switches: _Switches = _Switches(),
+    ) -> None:
         self.gl = gl
-        self.max_resolution = max_resolution
-        self.scratch = _Scratch(gl.ctx, atlas_size(max_resolution))
+        self._options = options
+        self._switches = _switches
+        self._exact_lists = gl.software if options.exact_lists is None else options.exact_lists
+        self.scratch = _Scratch(gl.ctx, atlas_size(options.max_resolution))
         atlas = sphere_atlas_defines()
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
         #: is a sphere or capsule drawn as one quad: QUAD 1, 2).
@@ -306,37 +364,21 @@ class Carver:
             for swept, quad in ((False, 0), (True, 0), (True, 1), (True, 2))
         }
         self._quad_vaos: dict[int, moderngl.VertexArray] = {}
-        #: Draw built-in spheres and capsules in passes 2 and 3 as one quad each (their facets
-        #: when False: the tests compare the two).
-        self.swept_quads = True
-        #: Draw a built-in sphere's chart texels in passes 4 and 5 as rectangles of texels, each
-        #: finding its facet from the sphere's atlas, where its footprint's triangles hold at
-        #: most this many texels of their boxes each (0: never; inf: always; the tests compare).
-        self.rect_texels_per_triangle = RECT_TEXELS_PER_TRIANGLE
         self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
-        #: Wraps each pass when set (the benchmark's GPU timer queries); names as in docs/carve.md.
-        self.pass_timer: Callable[[str], AbstractContextManager] | None = None
-        #: Bound the camera by whole bodies instead of the footprint (tests of the bound only).
-        self.loose_camera = False
-        #: Per-triangle lists of what each pass draws on a software rasteriser, whose vertex work
-        #: is CPU work; whole clusters on a GPU, where planning is the cost of a hit.
-        self.exact_lists = gl.software
-        #: Draw pass 2 for every target, also for convex ones that pass 4 does not need it for
-        #: (the address-map debug view).
-        self.address_every_target = False
-        #: Snapshots each batch's footprints before it is carved, when set (carve/undo.py).
-        self.undo_log: UndoLog | None = None
-        #: Give the host its GL state back after each batch (`gl.state.preserved`). False for
-        #: the sandbox, which owns its context and whose every pass sets the state it draws
-        #: with: the batch then starts from `neutral` state and leaves it, and the capture and
-        #: restore of the host's state are saved.
-        self.keep_host_state = True
         #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
         self._posed: dict[tuple[int, bytes], tuple[Mesh, dict[str, object]]] = {}
         #: The passes and kinds of map whose shader variants `warm` compiled.
         self._warmed: set[tuple] = set()
+
+    @property
+    def options(self) -> CarverOptions:
+        return self._options
+
+    @property
+    def max_resolution(self) -> int:
+        return self._options.max_resolution
 
     # -- public --------------------------------------------------------------------------------
     def carve(
@@ -353,7 +395,7 @@ class Carver:
         target. Both directions read the heights from before this hit (the paper updates a body's
         map only once both are done). Depths that are not positive finite numbers do nothing.
         """
-        return self.carve_many([(target, tool, contact, target_depth, tool_depth)])
+        return self.carve_many([Press(target, tool, contact, target_depth, tool_depth)])
 
     def carve_many(
         self, presses: Sequence[Press], meanwhile: Callable[[], None] | None = None
@@ -377,7 +419,7 @@ class Carver:
         waits for all queued work). It runs (once) also when no hit has a direction."""
         placed: list[CarveJob] = []
         if any(hits):
-            kept = preserved if self.keep_host_state else _from_neutral
+            kept = preserved if self._options.keep_host_state else _from_neutral
             with kept(self.gl.ctx):  # the host's GL state, as it left it (or not: the app's)
                 for batch in self.scratch.pack([hit for hit in hits if hit]):
                     self._run(batch, None if placed else hits, None if placed else meanwhile)
@@ -403,10 +445,10 @@ class Carver:
         # goes on (the undo log's snapshot, the gathers' draws), instead of when the first
         # gather samples their result.
         flush()
-        if record is not None and self.undo_log is not None:
-            self.undo_log.record(record)
+        if record is not None and self._options.undo_log is not None:
+            self._options.undo_log.record(record)
         by_map = sorted(jobs, key=lambda job: id(job.target.maps))  # one map's draws together
-        rects, quad = self.rect_texels_per_triangle, self._draw_quad
+        rects, quad = self._switches.rect_texels_per_triangle, self._draw_quad
         draws = [list(_texel_draws(job, rects, quad)) for job in by_map]  # passes 4 and 5 share
         with self._timed("gather"):
             self._gather_passes(by_map, draws)
@@ -479,8 +521,10 @@ class Carver:
         if cube_grid(mesh):  # _texel_draws' rectangles
             yield "gather", self._texel["gather", RECT, True, True, True], ""
             yield "normals", self._texel["normals", RECT, False], ""
-        quad = quad_kind(mesh) if self.swept_quads else 0
-        surfaces = ["peel"] + (["address"] if self.address_every_target or not convex else [])
+        quad = quad_kind(mesh) if self._switches.swept_quads else 0
+        surfaces = ["peel"] + (
+            ["address"] if self._options.address_every_target or not convex else []
+        )
         for name in surfaces:  # _camera_passes
             yield name, self._surface[name, swept, quad], "" if quad else name
 
@@ -521,7 +565,9 @@ class Carver:
         fbo.clear(*clear[:4], depth=clear[4], viewport=(0, 0, right, top))
 
     def _timed(self, name: str) -> AbstractContextManager:
-        return self.pass_timer(name) if self.pass_timer else contextlib.nullcontext()
+        return (
+            self._options.pass_timer(name) if self._options.pass_timer else contextlib.nullcontext()
+        )
 
     # -- pass 1 --------------------------------------------------------------------------------
     def plan(
@@ -535,7 +581,7 @@ class Carver:
         """The directions of a hit with a positive finite depth: the target dented by the tool,
         then the tool by the target (moving the other way). Bad contact frames and presses whose
         bodies cannot meet give none."""
-        return self.plan_many([(target, tool, contact, target_depth, tool_depth)])[0]
+        return self.plan_many([Press(target, tool, contact, target_depth, tool_depth)])[0]
 
     def plan_many(self, presses: Sequence[Press]) -> list[list[CarveJob]]:
         """`plan` of each press, the triangle lists of all their cameras found together
@@ -560,7 +606,7 @@ class Carver:
                         directions.append((body, other, frame, float(depth), advanced))
             counts.append(len(directions) - before)
         drafts = [self._draft(*direction) for direction in directions]
-        cameras = iter(collision_cameras(drafts, self.exact_lists))
+        cameras = iter(collision_cameras(drafts, self._exact_lists))
         found = iter(
             [
                 self._job(target, tool, depth, advanced, next(cameras))
@@ -586,9 +632,9 @@ class Carver:
             target.maps.size,
             contact,
             self.max_resolution,
-            loose=self.loose_camera,
+            loose=self._switches.loose_camera,
             advance=depth,
-            tool_list=not (self.swept_quads and quad_kind(tool.gpu_mesh.mesh)),
+            tool_list=not (self._switches.swept_quads and quad_kind(tool.gpu_mesh.mesh)),
         )
 
     def _job(
@@ -639,7 +685,7 @@ class Carver:
         with self._timed("peel"):
             self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
             self._camera_passes("peel", scratch.peel_fbo, jobs)
-        hiding = [job for job in jobs if self.address_every_target or not job.convex]
+        hiding = [job for job in jobs if self._options.address_every_target or not job.convex]
         if hiding:
             with self._timed("address"):
                 self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), hiding)
@@ -657,7 +703,7 @@ class Carver:
             triangles = job.camera.target_texels if name == "address" else job.camera.tool_view
             uniforms = job.target_uniforms if name == "address" else job.tool_uniforms
             kind = uniforms.get("u_quad", 0)
-            quad = kind if self.swept_quads and isinstance(kind, int) else 0
+            quad = kind if self._switches.swept_quads and isinstance(kind, int) else 0
             draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
             item = (job.viewport, draw, (body.maps.height, *inputs), uniforms)
             variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)
