@@ -371,10 +371,11 @@ class Carver:
     heights and normals) are copied on the GPU, so `undo()` takes back the last call exactly,
     bit for bit, then the one before, up to 64 calls and 64 MiB of copies (8 bytes a texel; the
     oldest are dropped first; a call whose copies alone exceed 64 MiB is carved but not
-    recorded, with one dentdemo.errors.UndoWarning, and the calls before it stay). The history
-    is one per moderngl context, shared by its Carvers. It lives on the GPU only: it is not
-    saved with `heights()` and is not restored by `set_heights`, which (like `repair` and
-    `release`) drops that surface's part of it."""
+    recorded, with one dentdemo.errors.UndoWarning, and the calls before it stay: undoing them
+    restores their texels, its dents among them). The history is one per moderngl context,
+    shared by its Carvers. It lives on the GPU only: it is not saved with `heights()` and is not
+    restored by `set_heights`, which (like `repair` and `release`) drops that surface's part of
+    it."""
 
     __slots__ = ("_ctx", "_carver")
 
