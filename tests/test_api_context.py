@@ -104,31 +104,40 @@ def test_no_call_writes_another_current_context(gl, tmp_path):
         gl.make_current()
 
 
-def test_a_call_from_another_thread_names_the_thread_rule(gl, tmp_path):
+@pytest.mark.parametrize("own_context", [False, True])
+def test_a_call_from_another_thread_names_the_thread_rule(gl, tmp_path, own_context):
+    """From a worker thread with no context current, or with one of its own current, every
+    call is refused naming the thread rule; the maps are untouched."""
     plate, ball = _pair(gl.ctx)
     carver = dentdemo.Carver(gl.ctx)
     calls = _calls(plate, ball, carver, tmp_path)
     failures: dict[str, BaseException | None] = {}
 
     def worker() -> None:
+        mine = create_headless() if own_context else None
         for name, call in {**calls, "dentdemo": lambda: preserved(gl.ctx).__enter__()}.items():
             try:
                 call()
                 failures[name] = None
             except BaseException as exc:  # noqa: BLE001 (each is checked below)
                 failures[name] = exc
+        if mine is not None:
+            mine.release()
 
     thread = threading.Thread(target=worker, name="host-worker")
     thread.start()
     thread.join()
+    state = "has another GL context current" if own_context else "no GL context is current in"
     for name, exc in failures.items():
         assert isinstance(exc, ContextError), (name, repr(exc))
         message = str(exc)
-        assert message.startswith(f"{name}: no GL context is current in thread 'host-worker'")
+        assert message.startswith(f"{name}: ") and "thread 'host-worker'" in message
+        assert state in message
         assert "call dentdemo from the thread where its GL context is current" in message
-        assert "(thread 'MainThread' made its context)" in message
+        assert "(thread 'MainThread' made it" in message
     assert len(failures) == len(calls) + 1
     # Nothing was done: this thread finds the maps flat, and carves as before.
+    gl.make_current()
     assert not plate.heights().any()
     assert carver.press(plate, ball, DOWN, 0.004)
     assert plate.heights().min() < -0.003

@@ -169,10 +169,12 @@ def parking_framebuffer(ctx: moderngl.Context) -> moderngl.Framebuffer:
 @dataclass(frozen=True)
 class Owner:
     """Where a moderngl context lives: its native handle (what `current_native` gave while it
-    was current) and the thread it was made or first met in (by name, for messages)."""
+    was current) and the thread it was made or first met in (its name, for messages, and its
+    identity)."""
 
     native: tuple[str, int] | None
     thread: str
+    thread_id: int
 
 
 #: What `current_native` gives where dentdemo cannot ask which context is current (neither EGL
@@ -222,7 +224,8 @@ def owner(ctx: moderngl.Context) -> Owner:
         native = current_native()
         if native is None:
             raise ContextError(_none_current("dentdemo", None))
-        store["owner"] = Owner(native, threading.current_thread().name)
+        here = threading.current_thread()
+        store["owner"] = Owner(native, here.name, threading.get_ident())
     return store["owner"]
 
 
@@ -236,6 +239,12 @@ def check_current(ctx: moderngl.Context, what: str) -> None:
         return
     if native is None:
         raise ContextError(_none_current(what, home))
+    if threading.get_ident() != home.thread_id:
+        raise ContextError(
+            f"{what}: thread {threading.current_thread().name!r} has another GL context "
+            f"current: call dentdemo from the thread where its GL context is current (thread "
+            f"{home.thread!r} made it); nothing was done"
+        )
     raise ContextError(
         f"{what}: another GL context is current, not the one these objects were made in; "
         "make that one current first (dentdemo never switches contexts); nothing was done"
