@@ -130,3 +130,139 @@ def test_outputs_in_a_folder_that_cannot_be_written_are_refused_before_any_work(
         assert str(argv[-2]) in err[0], (argv, err)
         assert "not writable" in err[0] or "cannot write in folder" in err[0], err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ro"]
+
+
+def _fill(folder: Path, free_kib: int) -> str:
+    """A shell line filling `folder`'s file system, then freeing `free_kib` KiB of it."""
+    return (
+        f"(dd if=/dev/zero of={folder}/fill bs=4k 2>/dev/null; true) && "
+        f"truncate -s -{free_kib}K {folder}/fill"
+    )
+
+
+@needs_namespace
+def test_a_video_on_a_full_disk_keeps_the_old_file_and_exits_1(tmp_path):
+    """An MP4 (and a GIF) whose disk fills while it is written: ffmpeg's "Error writing trailer"
+    left an 8 kB file without its moov box over the good one, exit 0. Now the old file stays
+    byte for byte, one line, exit 1, nothing hidden left; a disk full from the start is the
+    same for a GIF (a 38-line OSError traceback before)."""
+    full = tmp_path / "full"
+    full.mkdir()
+    good = tmp_path / "good"
+    good.mkdir()
+    for name in ("x.mp4", "x.gif"):
+        done = main(["-q", *RENDER, "--out", str(good / "g.png"), "--video", str(good / name)])
+        assert done == 0
+    setup = [
+        f"mount -t tmpfs -o size=2m none {full}",
+        f"cp {good}/x.mp4 {good}/x.gif {full}/",
+        _fill(full, 8),
+    ]
+    clip = ["render", "--frames", "30", "--size", "320x180", "--out", tmp_path / "o.png"]
+    runs = [[*clip, "--video", full / "x.mp4"], [*clip, "--video", full / "x.gif"]]
+    lines = [separated(dentdemo_line(*argv)) for argv in runs]
+    lines.append(f"ls -A {full}; cmp {good}/x.mp4 {full}/x.mp4 && cmp {good}/x.gif {full}/x.gif")
+    lines.append("echo same=$?")
+    done = in_namespace(setup, lines, tmp_path)
+    got = results(done)
+    assert len(got) == 2, done.stderr
+    for (code, err), name in zip(got, ("x.mp4", "x.gif"), strict=True):
+        assert code == 1 and len(err) == 1, err
+        assert err[0].startswith(f"--video: '{full / name}' not written (") and "replaced" in err[0]
+    listing = done.stdout.split("rc=1\n")[-1].splitlines()
+    assert listing[:-1] == ["fill", "x.gif", "x.mp4"] and listing[-1] == "same=0", done.stdout
+
+
+def test_a_recording_without_frames_writes_nothing(gl, tmp_path, capsys):
+    """F6 then Esc in one frame wrote a 261-byte MP4 without a stream, exit 0, and ffmpeg's
+    unprefixed "No frames have been written". Now nothing is written, one line says so."""
+    from dentdemo.app.controller import DemoController
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    lib = load_materials()
+    root = Path(__file__).resolve().parents[1]
+    app = DemoController(gl, load_scene(root / "assets/scenes/ball_drop.toml", lib), lib, (64, 36))
+    target = tmp_path / "r.mp4"
+    assert app.toggle_recording(target)
+    app.close()  # Esc: the window closes the controller, which stops the recording
+    assert sorted(tmp_path.iterdir()) == []
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"recording: '{target}' not written (no frames were recorded); nothing replaced"]
+    assert app.message == err[0]
+
+
+#: A writer of fake state folders, killed at random moments by the test below.
+_SAVER = """
+import sys
+from pathlib import Path
+from dentdemo.outputs import write_folder
+files = {"state.json": b"{}" * 1000, "a.npy": bytes(4 << 20), "b.npy": bytes(4 << 20)}
+print("ready", flush=True)
+while True:
+    write_folder(Path(sys.argv[1]), files)
+"""
+
+
+def test_killed_saves_leave_folders_the_next_save_removes_and_a_load_keeps(tmp_path):
+    """40 SIGKILLs during saves of S left `.S.<random>.new` folders (20 of them, 89 MB after 72
+    kills) that nothing removed or mentioned. A load (refused here: the state is a fake) writes
+    nothing and keeps them; the next save removes them and says so in one line."""
+    import random
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    state = tmp_path / "S"
+    rng = random.Random(46)
+    for _ in range(40):
+        saver = subprocess.Popen(
+            [sys.executable, "-c", _SAVER, str(state)], stdout=subprocess.PIPE, text=True
+        )
+        assert saver.stdout is not None and saver.stdout.readline() == "ready\n"
+        time.sleep(rng.uniform(0.0, 0.08))
+        saver.send_signal(signal.SIGKILL)
+        saver.wait()
+    hidden = sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("."))
+    assert hidden and all(name.startswith(".S.") and name.endswith(".new") for name in hidden)
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    from cli_helpers import dentdemo
+
+    load = dentdemo(*RENDER, "--out", tmp_path / "l.png", "--load-state", state, cwd=tmp_path)
+    assert load.returncode == 1 and len(load.stderr.splitlines()) == 1, load.stderr
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # a load never writes
+    save = dentdemo(*RENDER, "--out", tmp_path / "r.png", "--save-state", state, cwd=tmp_path)
+    assert save.returncode == 0, save.stderr
+    n = len(hidden)
+    what = "leftover" if n == 1 else "leftovers"
+    assert save.stderr.splitlines() == [
+        f"dentdemo: --save-state: removed {n} {what} of an interrupted write of '{state}' "
+        f"({', '.join(hidden[:3])}{', ...' if n > 3 else ''})"
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["S", "r.png"]
+    assert (state / "state.json").is_file()
+
+
+def test_a_killed_videos_file_is_removed_by_the_next_render_to_it(tmp_path, capsys):
+    """`.v.mp4.<random>.mp4` of a killed video was never removed. The next render of v.mp4
+    removes it (saying so), leaves a living writer's alone and touches no other hidden file."""
+    import fcntl
+
+    dead = tmp_path / ".v.mp4.k2j4x9ab.mp4"
+    dead.write_bytes(b"\0" * 1000)
+    alive = tmp_path / ".v.mp4.abcdefgh.mp4"
+    alive.write_bytes(b"\0" * 10)
+    other = tmp_path / ".w.mp4.k2j4x9ab.mp4"  # another target's
+    other.write_bytes(b"")
+    with open(alive, "rb") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)  # as a living writer holds its file
+        video = tmp_path / "v.mp4"
+        assert main([*RENDER, "--out", str(tmp_path / "o.png"), "--video", str(video)]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"dentdemo: --video: removed 1 leftover of an interrupted write of '{video}' ({dead.name})"
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [alive.name, other.name, "o.png", "v.mp4"]
+    )

@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import ctypes
 import errno
+import fcntl
 import io
 import json
 import os
+import re
 import shutil
 import stat
 import tempfile
@@ -16,6 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
+from dentdemo import log
 from dentdemo.errors import DentdemoError
 
 if TYPE_CHECKING:  # numpy loads when an array is written: the commands' start stays light
@@ -143,7 +146,11 @@ def _hidden_prefix(path: Path, suffix: str) -> str:
     return f".{stem}."
 
 
-def temporary_beside(path: Path, suffix: str = ".tmp") -> tuple[int, Path]:
+#: The suffix of write_atomic's temporary files.
+TEMPORARY = ".tmp"
+
+
+def temporary_beside(path: Path, suffix: str = TEMPORARY) -> tuple[int, Path]:
     """A new, empty, uniquely named hidden file in `path`'s folder (an open descriptor and its
     path), to write `path` atomically: its name starts with as much of `path`'s name as fits in
     NAME_MAX bytes beside the random part and `suffix`, so a legal final name never makes an
@@ -161,6 +168,76 @@ def leftovers_beside(path: Path, suffix: str) -> list[Path]:
     """Folders `write_folder` left beside `path` with `suffix` (a save killed mid-swap)."""
     pattern = f"{_hidden_prefix(path, suffix)}*{suffix}"
     return sorted(p for p in path.absolute().parent.glob(pattern) if p.is_dir())
+
+
+#: Each folder's hidden names as first listed by this process (write_atomic's leftovers are
+#: looked for once a folder: a render writing 10,000 frames lists its folder once, not 10,000
+#: times).
+_HIDDEN: dict[Path, list[str]] = {}
+
+
+def _temporaries_beside(path: Path, suffix: str, fresh: bool = True) -> list[Path]:
+    """The names `temporary_beside(path, suffix)` (or write_folder's mkdtemp) gives: the hidden
+    prefix, tempfile's 8 random characters, `suffix`; nothing else matches. `fresh`: list the
+    folder now, else as this process first listed it."""
+    folder = path.absolute().parent
+    name = re.compile(re.escape(_hidden_prefix(path, suffix)) + "[a-z0-9_]{8}" + re.escape(suffix))
+    if fresh or folder not in _HIDDEN:
+        try:
+            _HIDDEN[folder] = [n for n in os.listdir(folder) if n.startswith(".")]
+        except OSError:
+            _HIDDEN[folder] = []
+    return sorted(folder / n for n in _HIDDEN[folder] if name.fullmatch(n))
+
+
+def hold(path: Path) -> int:
+    """An open descriptor holding an exclusive lock on the temporary `path` (a file or a folder)
+    while its writer lives: `remove_leftovers` of another writer leaves it alone. The lock goes
+    with the process, however it ends."""
+    fd = os.open(path, os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return fd
+
+
+def _unheld(path: Path) -> bool:
+    """True when no living writer holds `path` (its writer was killed or failed)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
+    return True
+
+
+def remove_leftovers(flag: str, path: Path, suffix: str, fresh: bool = True) -> list[Path]:
+    """Remove what killed writers of `path` left beside it (temporary files or folders ending in
+    `suffix`, held by no living writer) and say so in one line; a writer calls it before it
+    writes `path`, a reader never does. `fresh`: see `_temporaries_beside`."""
+    removed = []
+    for left in _temporaries_beside(path, suffix, fresh):
+        if not _unheld(left):
+            continue
+        try:
+            if left.is_dir() and not left.is_symlink():
+                shutil.rmtree(left)
+            else:
+                left.unlink()
+        except OSError:
+            continue
+        removed.append(left)
+    if removed:
+        names = ", ".join(p.name for p in removed[:3]) + (", ..." if len(removed) > 3 else "")
+        what = "leftover" if len(removed) == 1 else "leftovers"
+        log.warn(
+            f"dentdemo: {flag}: removed {len(removed)} {what} of an interrupted write of "
+            f"'{path}' ({names})"
+        )
+    return removed
 
 
 def check_replaceable_dir(flag: str, path: Path, holds: Callable[[str], bool], what: str) -> Path:
@@ -227,17 +304,21 @@ def swap_in(new: Path, path: Path) -> None:
     shutil.rmtree(old)
 
 
-def write_folder(path: Path, files: dict[str, bytes]) -> Path:
+def write_folder(path: Path, files: dict[str, bytes], flag: str = "save") -> Path:
     """Write `files` (name -> bytes) into a new folder beside `path` and swap it in as a whole
-    (`swap_in`): a kill at any moment leaves the previous folder or the new one, never a mix."""
+    (`swap_in`): a kill at any moment leaves the previous folder or the new one, never a mix.
+    New folders that killed saves left beside `path` are removed first (`flag` names the
+    writer in the line that says so)."""
     parent = path.absolute().parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise DentdemoError(f"{parent}: cannot create folder ({_why(exc)})") from None
+    remove_leftovers(flag, path, NEW_FOLDER)
     new = Path(
         tempfile.mkdtemp(prefix=_hidden_prefix(path, NEW_FOLDER), suffix=NEW_FOLDER, dir=parent)
     )
+    lock = hold(new)
     try:
         for name, data in files.items():
             (new / name).write_bytes(data)
@@ -250,6 +331,8 @@ def write_folder(path: Path, files: dict[str, bytes]) -> Path:
     except BaseException:  # Ctrl-C or a bug: the previous folder stays, no new one is left
         shutil.rmtree(new, ignore_errors=True)
         raise
+    finally:
+        os.close(lock)
     return path
 
 
@@ -260,8 +343,11 @@ def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
     except OSError as exc:
         raise DentdemoError(f"{path.parent}: cannot create folder ({_why(exc)})") from None
     check_regular(str(path), path)
+    remove_leftovers(str(path), path, TEMPORARY, fresh=False)
     try:
         fd, tmp = temporary_beside(path)
+        lock = os.dup(fd)  # holds the lock until the rename, after the file is closed
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError as exc:
         raise DentdemoError(f"{path}: cannot write ({_why(exc)})") from None
     try:
@@ -275,6 +361,8 @@ def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
     except BaseException:  # Ctrl-C or a bug: no temporary file left behind
         tmp.unlink(missing_ok=True)
         raise
+    finally:
+        os.close(lock)
     return path
 
 

@@ -434,7 +434,11 @@ class DemoController:
         recorder, self.recorder = self.recorder, None
         if recorder is None:
             return
-        recorder.finish()
+        try:
+            recorder.finish()
+        except DentdemoError as exc:  # no frames, or a full disk: nothing replaced
+            self._report_error(exc)
+            return
         seconds = recorder.frames / recorder.fps
         self.message = f"wrote {recorder.out} ({recorder.frames} frames, {seconds:.2f} s)"
 

@@ -184,7 +184,7 @@ def save_state(sim: Simulation, directory: Path, flag: str = "--save-state") -> 
     except DentdemoError as exc:
         raise DentdemoError(f"{flag}: not saved, a load would refuse it: {exc}") from None
     files[STATE_FILE] = text.encode("utf-8")
-    return outputs.write_folder(directory, files) / STATE_FILE
+    return outputs.write_folder(directory, files, flag) / STATE_FILE
 
 
 # -- loading -----------------------------------------------------------------------------------
