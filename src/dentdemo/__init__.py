@@ -23,6 +23,9 @@ The API (each name has its own help, e.g. help(dentdemo.DentableSurface)):
     shape_mesh(Sphere(r), Box((x, y, z)), Capsule/Cylinder(r, length), Plate(side)) -> Mesh
     export_gltf(path, surfaces, names=None, looks=None) -> .glb/.gltf file: meshes, tangents,
         materials (looks: Appearance or preset names), normal maps, heights (16-bit PNG)
+    Carver.log_to(sink, {name: surface}) every press, undo and repair as hit-log records;
+    replay(records or log bytes, {name: surface}, carver) carves them onto other surfaces;
+        dentdemo.hitlog: the records, to_bytes / to_lines / parse (binary or JSON Lines)
 
 Mesh.tangents (n, 4): xyz = T along +u, w = handedness, B = cross(N, T) * w; a normal-map texel
 m (rgb * 2 - 1) is T m.x + B m.y + N m.z. Mesh.source_vertex (n,): the caller's vertex each one
@@ -56,6 +59,7 @@ __all__ = [
     "export_gltf",
     "load_mesh",
     "mesh_from_triangles",
+    "replay",
     "shape_mesh",
 ]
 
@@ -66,6 +70,7 @@ _EXPORTS = {
     "Carver": "dentdemo.api",
     "Contact": "dentdemo.api",
     "export_gltf": "dentdemo.api",
+    "replay": "dentdemo.api",
     "Appearance": "dentdemo.model.materials",
     "Mesh": "dentdemo.mesh.mesh",
     "mesh_from_triangles": "dentdemo.mesh.loader",
@@ -85,12 +90,13 @@ API = (
     "export_gltf",
     "load_mesh",
     "mesh_from_triangles",
+    "replay",
     "shape_mesh",
 )
 
 
 if TYPE_CHECKING:  # what type checkers see behind the lazy imports below
-    from dentdemo.api import Carver, Contact, DentableSurface, export_gltf
+    from dentdemo.api import Carver, Contact, DentableSurface, export_gltf, replay
     from dentdemo.mesh.loader import load_mesh, mesh_from_triangles
     from dentdemo.mesh.mesh import Mesh
     from dentdemo.mesh.shapes import shape_mesh
@@ -101,6 +107,8 @@ if TYPE_CHECKING:  # what type checkers see behind the lazy imports below
 def __getattr__(name: str) -> Any:
     if name in _EXPORTS:
         return getattr(importlib.import_module(_EXPORTS[name]), name)
+    if name == "hitlog":  # the records and their encodings (model/hitlog.py)
+        return importlib.import_module("dentdemo.model.hitlog")
     raise AttributeError(f"module 'dentdemo' has no attribute {name!r}")
 
 

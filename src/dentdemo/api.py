@@ -12,7 +12,7 @@ import math
 import numbers
 import os
 import sys
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar, cast
 
@@ -20,6 +20,7 @@ import moderngl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from dentdemo.api_hitlog import SurfaceRecorder
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, CarverOptions, Press
 from dentdemo.carve.carver import Carver as _Carver
@@ -37,6 +38,8 @@ from dentdemo.gl.state import preserved
 from dentdemo.gpu.maps import SurfaceMaps
 from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.mesh import Mesh
+from dentdemo.model import hitlog
+from dentdemo.model.hitlog import Body, Event, Hit, HitLogError, Record
 from dentdemo.model.materials import SURFACES, Appearance, MaterialLibrary
 from dentdemo.model.materials_keys import NUMBER_KEYS
 
@@ -377,13 +380,14 @@ class Carver:
     restored by `set_heights`, which (like `repair` and `release`) drops that surface's part of
     it."""
 
-    __slots__ = ("_ctx", "_carver")
+    __slots__ = ("_ctx", "_carver", "_log")
 
     def __init__(self, ctx: moderngl.Context) -> None:
         if not isinstance(ctx, moderngl.Context):
             raise ArgumentError(f"ctx must be a moderngl.Context, got {type(ctx).__name__}")
         self._ctx = ctx
         _wrap(ctx).check_current("Carver()")
+        self._log: SurfaceRecorder | None = None
         with preserved(ctx):
             options = CarverOptions(undo_log=_undo_log(ctx))
             self._carver: _Carver | None = _Carver(_wrap(ctx), options)
@@ -443,6 +447,9 @@ class Carver:
             assert isinstance(contact, Contact)
             checked.append((target, tool, contact, depth_m, tool_m))
         carver = self._live()
+        if self._log is not None:
+            self._log.check(s for press in checked for s in press[:2])
+            self._log.presses(checked)
         planned = carver.plan_many(
             [
                 Press(
@@ -464,7 +471,22 @@ class Carver:
         each press, bit for bit): True, or False with nothing done when no call is left to
         undo (none yet, all undone, or older than the 64 kept)."""
         log = self._live().options.undo_log
-        return log is not None and log.undo()
+        undone = log is not None and log.undo()
+        if undone and self._log is not None:
+            self._log.event("undo")
+        return undone
+
+    def log_to(
+        self,
+        sink: Callable[[Record], None] | None,
+        surfaces: Mapping[str, DentableSurface] | None = None,
+    ) -> None:
+        """From now on hand every press, undo and repair of this Carver to `sink` as hit-log
+        records (dentdemo.hitlog: `to_bytes`, `to_lines`, `Encoder` for a stream), naming each
+        surface by its key in `surfaces`; a press of a surface not named there is a ValueError.
+        `dentdemo.replay(records, surfaces, carver)` carves them elsewhere. None stops it."""
+        self._live()
+        self._log = None if sink is None else SurfaceRecorder(sink, surfaces or {}, DentableSurface)
 
     @_in_context
     def prepare(self, *surfaces: DentableSurface) -> None:
@@ -505,6 +527,8 @@ class Carver:
         assert surface._gpu is not None
         surface._forget_undo(maps)
         restore_pristine(surface._gl, surface._gpu, maps, surface._start)
+        if self._log is not None:
+            self._log.event("repair", surface)
 
     def release(self) -> None:
         """Free the collision camera's buffers (again, or once the context is released:
@@ -646,3 +670,81 @@ def _checked_look(name: str, look: Appearance) -> Appearance:
             f"{name}.surface must be one of {', '.join(SURFACES)}, got {look.surface!r}"
         )
     return look
+
+
+def replay(
+    records: Iterable[Record] | bytes,
+    surfaces: Mapping[str, DentableSurface],
+    carver: Carver,
+) -> int:
+    """Carve hit-log records (a list of records, or a log's bytes in either form) onto
+    `surfaces`, each named as the log names it, with `carver`: each batch is one `press_many`
+    with the recorded poses (each surface's `model` is put back afterwards), an undo is
+    `carver.undo()`, a repair `carver.repair`. The whole log is checked first: a bad record, a
+    name `surfaces` lacks or a surface whose map side differs is a ValueError naming the record,
+    and nothing is carved. Returns the presses carved. On the same driver the maps come out bit
+    for bit as the sender's."""
+    try:
+        if isinstance(records, bytes | bytearray):
+            checked = hitlog.parse(bytes(records), "records")
+        else:
+            checked = hitlog.check(list(records))
+    except HitLogError as exc:
+        raise ArgumentError(str(exc)) from None
+    by_index: dict[int, DentableSurface] = {}
+    for n, record in enumerate(checked, 1):
+        if isinstance(record, Body):
+            surface = surfaces.get(record.id)
+            if not isinstance(surface, DentableSurface):
+                raise ArgumentError(f"record {n}: no surface named '{record.id}' in surfaces")
+            if record.spec.get("map_size") != surface.map_size:
+                raise ArgumentError(
+                    f"record {n}: '{record.id}' had {record.spec.get('map_size')}^2 maps, "
+                    f"the surface has {surface.map_size}^2"
+                )
+            by_index[record.index] = surface
+        elif isinstance(record, Event) and record.kind in ("reset", "depth_bound"):
+            raise ArgumentError(f"record {n}: a '{record.kind}' has no DentableSurface meaning")
+    kept = {id(s): (s, s.model.copy()) for s in by_index.values()}
+    carved = 0
+    batch: list[Hit] = []
+
+    def flush() -> None:
+        nonlocal carved
+        if not batch:
+            return
+        for hit in batch:  # one pose a surface within a call, as when it was recorded
+            by_index[hit.target].model = hitlog.pose_matrix(hit.target_pose)
+            by_index[hit.tool].model = hitlog.pose_matrix(hit.tool_pose)
+        carver.press_many(
+            [
+                (
+                    by_index[h.target],
+                    by_index[h.tool],
+                    Contact(h.point, h.direction),
+                    h.target_depth,
+                    h.tool_depth,
+                )
+                for h in batch
+            ]
+        )
+        carved += len(batch)
+        batch.clear()
+
+    try:
+        for record in checked:
+            if isinstance(record, Hit):
+                if batch and batch[0].batch != record.batch:
+                    flush()
+                batch.append(record)
+                continue
+            flush()
+            if isinstance(record, Event) and record.kind == "undo":
+                carver.undo()
+            elif isinstance(record, Event) and record.kind == "repair":
+                carver.repair(by_index[record.body])
+        flush()
+    finally:
+        for surface, model in kept.values():
+            surface.model = model
+    return carved

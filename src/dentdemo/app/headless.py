@@ -35,6 +35,7 @@ def render_headless(
     video: Path | None = None,
     progress: bool = False,
     gltf: Path | None = None,
+    hit_log: Path | None = None,
 ) -> None:
     """Simulate `frames` steps and write the last frame (every frame, `out` % frame, with
     `every_frame`). `load_state` resumes a saved run first (the frames continue it);
@@ -42,7 +43,8 @@ def render_headless(
     is flushed, so that a resumed run continues exactly. `eye`, `target` (world metres) and
     `fov` (degrees) replace the scene camera's, each where given. `video` (.mp4 or .gif) gets
     every frame as well, at the scene's frame rate. `gltf` (.glb or .gltf) gets every body as
-    it is after the last frame."""
+    it is after the last frame. `hit_log` (.ddhl or .jsonl) gets every carve as a record
+    (app/hitlog.py), written with the maps."""
     from dentdemo.app.controller import DemoController  # loads ODE
     from dentdemo.app.loop import FrameLoop, ImageBackend, Tee, VideoBackend
 
@@ -64,6 +66,12 @@ def render_headless(
             from dentdemo.app.state import load_state as resume
 
             resume(app.sim, load_state)
+        recorder = None
+        if hit_log is not None:
+            from dentdemo.app.hitlog import HitRecorder
+
+            recorder = HitRecorder()
+            recorder.attach(app.sim)
         images = ImageBackend(size, out, every_frame)
         clip = VideoBackend(size, video, 1.0 / scene.physics.dt) if video is not None else None
         backend = images if clip is None else Tee(images, clip)
@@ -85,6 +93,11 @@ def render_headless(
             interrupt.check()
             save(app.sim, save_state)
         app.sim.apply_queued()  # what the budget deferred, before the maps are exported
+        if hit_log is not None and recorder is not None:
+            from dentdemo.app.hitlog import write_log
+
+            interrupt.check()
+            write_log(hit_log, recorder.records)
         if maps_dir is not None:
             interrupt.check()
             app.sim.export_maps(maps_dir)

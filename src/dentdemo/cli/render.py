@@ -72,6 +72,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         p, "also write every body as it is after the last frame, with its normal and height maps"
     )
     p.add_argument(
+        "--hit-log",
+        metavar="FILE",
+        help="also write every carve as a record: .ddhl (binary) or .jsonl (JSON Lines);"
+        " 'dentdemo replay' carves it back",
+    )
+    p.add_argument(
         "--eye",
         type=float_in(-1000, 1000),
         nargs=3,
@@ -145,6 +151,15 @@ def run(args: argparse.Namespace) -> int:
         if video.suffix.lower() == ".mp4" and (args.size[0] % 2 or args.size[1] % 2):
             raise DentdemoError(f"--video: H.264 needs an even --size, got {args.size}")
     gltf = check_gltf(args.gltf)
+    hit_log = None
+    if args.hit_log is not None:
+        from dentdemo.app.hitlog import check_log_path
+
+        if args.load_state:
+            raise DentdemoError(
+                "--hit-log: a log starts from the scene as loaded; it cannot follow --load-state"
+            )
+        hit_log = check_log_path("--hit-log", Path(args.hit_log))
     save_state = _folder("--save-state", args.save_state)
     if save_state is not None:
         from dentdemo.app.state import check_state_dir
@@ -171,6 +186,7 @@ def run(args: argparse.Namespace) -> int:
         video=video,
         progress=True,
         gltf=gltf,
+        hit_log=hit_log,
     )
     if every:
         last = args.frames - 1
@@ -179,4 +195,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {out}")
     if gltf is not None:
         print(f"wrote {gltf}")
+    if hit_log is not None:
+        print(f"wrote {hit_log}")
     return 0

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from dentdemo import interrupt
 from dentdemo.model.impulse import pair_impulses
+from dentdemo.model.pose import pose_matrix, quat_to_matrix  # noqa: F401 (re-exported)
 from dentdemo.model.scene import BodySpec, PhysicsSpec
 from dentdemo.model.shapes import Capsule, Cylinder, MeshFile, Plane, Sphere
 from dentdemo.physics.geoms import body_mass, destroy_geom, make_geom, trimesh_geom
@@ -123,17 +124,6 @@ class WorldState:
     bodies: dict[str, tuple[list[float], list[float], list[float], list[float]]]
 
 
-def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    w, x, y, z = q
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
 def rolling_radius(
     spec: BodySpec, mesh_arrays: tuple[NDArray, NDArray] | None, com: NDArray[np.float64]
 ) -> float:
@@ -171,15 +161,6 @@ def _spin_axis(spin: tuple[float, float, float], normal: Handle, fdir1: Handle) 
         return 0
     fdir1[0], fdir1[1], fdir1[2] = tx / length, ty / length, tz / length
     return int(ode.dContactFDir1)
-
-
-def pose_matrix(position: ArrayLike, quaternion: ArrayLike) -> NDArray[np.float64]:
-    """World from body-local 4x4 (column vectors) of a pose: the origin's position (m) and the
-    quaternion (w, x, y, z)."""
-    m = np.eye(4)
-    m[:3, :3] = quat_to_matrix(np.asarray(quaternion, dtype=np.float64))
-    m[:3, 3] = np.asarray(position, dtype=np.float64)
-    return m
 
 
 def _addr(ptr: Handle) -> int:

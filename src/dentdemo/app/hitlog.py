@@ -1,0 +1,296 @@
+"""A Simulation's carves as hit-log records (model/hitlog.py), and a log carved back onto a
+Simulation's bodies with no physics: the same batches through the same `carve_many`, so on the
+same driver the maps come out bit for bit as the run that wrote the log."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from dentdemo import outputs
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import CarveBody, Press
+from dentdemo.errors import DentdemoError
+from dentdemo.model import hitlog, shapes
+from dentdemo.model.hitlog import Body, Event, Hit, HitLogError, Record
+from dentdemo.model.scene import BodySpec
+
+if TYPE_CHECKING:
+    from dentdemo.app.simulation import CarveRequest, SimBody, Simulation
+
+#: Largest hit log read, bytes (about five million hits in the binary form).
+MAX_LOG_BYTES = 1 << 30
+
+
+def body_spec(body: SimBody, added: bool) -> dict[str, Any]:
+    """What a replay needs to find the body in the scene (its map's side and depth bound) or,
+    for a body the scene lacks, to make it (shape, material, map density...; JSON-ready)."""
+    spec = body.spec
+    kept = {
+        "added": added,
+        "map_size": body.maps.size[0],
+        "max_dent_depth": body.maps.max_dent_depth,
+    }
+    if not added:
+        return kept
+    return {
+        **kept,
+        "shape": shapes.as_dict(spec.shape),
+        "material": spec.material.name,
+        "texels_per_metre": spec.texels_per_metre,
+        "dentable": spec.dentable,
+        "bump_map": spec.bump_map,
+        "bump_height": spec.bump_height,
+        "static": spec.static,
+        "position": list(spec.position),
+        "orientation": list(spec.orientation),
+    }
+
+
+@dataclass
+class HitRecorder:
+    """Turns a Simulation's carves into records: kept in `records` and, when `sink` is set,
+    handed to it as they happen (a file, a pipe to another process). A body is declared by the
+    first batch that carves it (a body no hit reaches costs the log nothing); a reset forgets
+    the declarations, since the scene's bodies are made anew."""
+
+    sink: Callable[[Record], None] | None = None
+    keep: bool = True
+    records: list[Record] = field(default_factory=list)
+    hits: int = 0
+    _index: dict[str, int] = field(default_factory=dict)
+    _next: int = 0
+    _batch: int = 0
+    #: Frames before the last reset (a reset starts the simulation's count again at 0; the
+    #: log's frames never go back).
+    _base: int = 0
+    _last: int = 0
+    _added: set[str] = field(default_factory=set)
+
+    def frame(self, sim: Simulation) -> int:
+        """The log's frame number now: the simulation's, counted on across resets."""
+        if self._base + sim.stats.frames < self._last:
+            self._base = self._last - sim.stats.frames
+        self._last = self._base + sim.stats.frames
+        return self._last
+
+    def emit(self, record: Record) -> None:
+        if self.keep:
+            self.records.append(record)
+        if self.sink is not None:
+            self.sink(record)
+
+    def attach(self, sim: Simulation) -> None:
+        """Start recording `sim` (the bodies it has now are its scene's, or were added)."""
+        sim.recorder = self
+        scene_ids = {spec.id for spec in sim.scene.bodies}
+        self._added = {body_id for body_id in sim.bodies if body_id not in scene_ids}
+
+    def added(self, body_id: str) -> None:
+        """`body_id` was added while running (the scene file lacks it)."""
+        self._added.add(body_id)
+
+    def _declare(self, sim: Simulation, body_id: str) -> int:
+        index = self._index.get(body_id)
+        if index is not None:
+            return index
+        if self._next >= hitlog.MAX_BODIES:
+            raise DentdemoError(f"hit log: more than {hitlog.MAX_BODIES} bodies")
+        body = sim.bodies[body_id]
+        spec = body_spec(body, body_id in self._added)
+        self.emit(Body(self.frame(sim), self._next, body_id, spec))
+        self._index[body_id] = self._next
+        self._next += 1
+        return self._next - 1
+
+    def batch(self, sim: Simulation, requests: Sequence[CarveRequest]) -> None:
+        """One carved batch: a hit record per request, in the batch's order."""
+        frame = self.frame(sim)
+        for request in requests:  # every body of the batch declared before its first hit
+            self._declare(sim, request.impact.body_a)
+            self._declare(sim, request.impact.body_b)
+        for request in requests:
+            impact = request.impact
+            self.emit(
+                Hit(
+                    frame,
+                    self._batch,
+                    self._index[impact.body_a],
+                    self._index[impact.body_b],
+                    hitlog.rigid_pose(request.model_a, impact.pose_a[1]),
+                    hitlog.rigid_pose(request.model_b, impact.pose_b[1]),
+                    _vec3(impact.point),
+                    _vec3(-impact.normal),
+                    float(request.depth_a),
+                    float(request.depth_b),
+                )
+            )
+        self.hits += len(requests)
+        self._batch += 1
+
+    def event(self, sim: Simulation, kind: str, body_id: str = "", value: float = 0.0) -> None:
+        """An undo, reset, or a declared body's repair or new depth bound (a body not yet
+        declared is declared with its bound when a hit first carves it, and a repair of a
+        body no logged hit carved changes nothing the log holds)."""
+        index = self._index.get(body_id, -1) if body_id else -1
+        if body_id and index < 0:
+            return
+        self.emit(Event(self.frame(sim), kind, index, value))
+        if kind == "reset":
+            self._index.clear()
+            self._added.clear()
+
+
+def _vec3(v: Iterable[Any]) -> tuple[float, float, float]:
+    x, y, z = (float(c) for c in v)
+    return (x, y, z)
+
+
+def _quat(v: Iterable[Any]) -> tuple[float, float, float, float]:
+    w, x, y, z = (float(c) for c in v)
+    return (w, x, y, z)
+
+
+# -- files -------------------------------------------------------------------------------------
+def check_log_path(flag: str, path: Path) -> Path:
+    """A hit log to write: .ddhl (binary) or .jsonl (JSON Lines); checked before any work."""
+    if path.suffix.lower() not in (hitlog.BINARY_SUFFIX, hitlog.TEXT_SUFFIX):
+        raise DentdemoError(
+            f"{flag}: '{path}' must end in {hitlog.BINARY_SUFFIX} (binary) "
+            f"or {hitlog.TEXT_SUFFIX} (JSON Lines)"
+        )
+    return outputs.check_output_file(flag, path)
+
+
+def log_bytes(path: Path, records: Iterable[Record]) -> bytes:
+    if path.suffix.lower() == hitlog.TEXT_SUFFIX:
+        return hitlog.to_lines(records).encode()
+    return hitlog.to_bytes(records)
+
+
+def write_log(path: Path, records: Iterable[Record]) -> Path:
+    return outputs.write_bytes(path, log_bytes(path, records))
+
+
+def read_log(flag: str, path: Path) -> tuple[list[Record], list[str]]:
+    """A log file's records, checked whole, and where each is in the file; one DentdemoError
+    line for any fault."""
+    if not path.is_file():
+        raise DentdemoError(f"{flag}: '{path}' is not a file")
+    if path.stat().st_size > MAX_LOG_BYTES:
+        raise DentdemoError(f"{flag}: '{path}' is larger than {MAX_LOG_BYTES} bytes")
+    try:
+        data = path.read_bytes()
+        return hitlog.parse_placed(data, f"{flag}: '{path}'")
+    except OSError as exc:
+        raise DentdemoError(f"{flag}: cannot read '{path}': {exc.strerror or exc}") from None
+    except HitLogError as exc:
+        raise DentdemoError(str(exc)) from None
+
+
+# -- replay ------------------------------------------------------------------------------------
+def _added_spec(sim: Simulation, record: Body, where: str) -> BodySpec:
+    s = record.spec
+    try:
+        return BodySpec(
+            id=record.id,
+            shape=shapes.from_dict(s["shape"]),
+            material=sim.materials.get(str(s["material"]), where, "key 'material'"),
+            position=_vec3(s["position"]),
+            orientation=_quat(s["orientation"]),
+            static=bool(s["static"]),
+            texels_per_metre=float(s["texels_per_metre"]),
+            dentable=bool(s["dentable"]),
+            bump_map=str(s["bump_map"]),
+            bump_height=float(s["bump_height"]),
+        )
+    except DentdemoError:
+        raise
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DentdemoError(f"{where}: body '{record.id}' has a bad spec ({exc})") from None
+
+
+def _plan(sim: Simulation, records: Sequence[Record], names: Sequence[str]) -> None:
+    """Every body record checked against the scene before anything is carved: a scene body the
+    scene lacks (or whose shape or map differs), or an added body whose id is taken or whose spec
+    does not build, is one line naming the record."""
+    scene = {spec.id: spec for spec in sim.scene.bodies}
+    live = set(scene)
+    for at, record in zip(names, records, strict=True):
+        if isinstance(record, Event) and record.kind == "reset":
+            live = set(scene)
+        if not isinstance(record, Body):
+            continue
+        if record.spec.get("added"):
+            if record.id in live:
+                raise DentdemoError(f"{at}: added body '{record.id}' is already in the scene")
+            _added_spec(sim, record, at)
+            live.add(record.id)
+            continue
+        spec = scene.get(record.id)
+        if spec is None:
+            raise DentdemoError(f"{at}: body '{record.id}' is not in the scene")
+        body = sim.bodies.get(record.id)
+        if body is not None and body.maps.size[0] != record.spec.get("map_size"):
+            raise DentdemoError(
+                f"{at}: body '{record.id}' has {body.maps.size[0]}^2 maps in the scene, "
+                f"the log's were {record.spec.get('map_size')}^2"
+            )
+
+
+def replay(sim: Simulation, records: Sequence[Record], names: Sequence[str] | None = None) -> int:
+    """Carve `records` (checked: model.hitlog.check) onto `sim`'s bodies, batch by batch, with
+    no physics step; returns the hits carved. Bodies the log added are added; a reset, undo or
+    repair is done where the log has it."""
+    where = list(names) if names is not None else [f"record {n + 1}" for n in range(len(records))]
+    _plan(sim, records, where)
+    ids: dict[int, str] = {}
+    pending: list[Press] = []
+    batch = -1
+    carved = 0
+
+    def flush() -> None:
+        nonlocal carved
+        if pending:
+            sim.carver.carve_many(pending)
+            carved += len(pending)
+            pending.clear()
+
+    for at, record in zip(where, records, strict=True):
+        if isinstance(record, Hit):
+            if record.batch != batch:
+                flush()
+                batch = record.batch
+            pending.append(_press(sim, ids, record))
+            continue
+        flush()
+        if isinstance(record, Body):
+            if record.spec.get("added"):
+                sim.add_body(_added_spec(sim, record, at))
+            ids[record.index] = record.id
+            sim.bodies[record.id].maps.max_dent_depth = float(record.spec["max_dent_depth"])
+        elif record.kind == "undo":
+            sim.undo()
+        elif record.kind == "repair":
+            sim.repair(ids[record.body])
+        elif record.kind == "reset":
+            sim.reset()
+        elif record.kind == "depth_bound":
+            sim.bodies[ids[record.body]].maps.max_dent_depth = record.value
+    flush()
+    return carved
+
+
+def _press(sim: Simulation, ids: dict[int, str], hit: Hit) -> Press:
+    target, tool = sim.bodies[ids[hit.target]], sim.bodies[ids[hit.tool]]
+    return (
+        CarveBody(target.gpu_mesh, target.maps, hitlog.pose_matrix(hit.target_pose)),
+        CarveBody(tool.gpu_mesh, tool.maps, hitlog.pose_matrix(hit.tool_pose)),
+        ContactFrame(np.array(hit.point), np.array(hit.direction)),
+        hit.target_depth,
+        hit.tool_depth,
+    )
