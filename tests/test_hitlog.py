@@ -357,3 +357,33 @@ def test_a_host_carver_logs_its_presses_and_replay_repeats_them(gl):
         s.release()
     carver.release()
     replayer.release()
+
+
+def test_the_replication_example_ends_with_equal_maps(tmp_path):
+    """examples/replicate.py: a sender process simulates and streams records through a pipe,
+    a receiver process only carves them; the sender compares both sides' map files."""
+    import subprocess
+    import sys
+
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "replicate.py"), "--frames", "120",
+         "--out-dir", str(tmp_path)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "equal the sender's, byte for byte" in result.stdout
+    sender = sorted((tmp_path / "sender").iterdir())
+    assert sender and any(np.load(p).min() < 0 for p in sender if p.suffix == ".npy")
+
+
+def test_the_demo_writes_its_hit_log_when_it_ends(tmp_path):
+    """Without a display the demo renders headless; --hit-log is written there too."""
+    import os
+
+    log = tmp_path / "d.jsonl"
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    run = dentdemo("demo", "--exit-after", 2, "--screenshot", tmp_path / "s.png",
+                   "--size", "64x36", "--hit-log", log, env=env)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    records = hitlog.parse(log.read_bytes(), str(log))
+    assert sum(isinstance(r, Hit) for r in records) > 0

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dentdemo import outputs
+from dentdemo import log, outputs
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Press
 from dentdemo.errors import DentdemoError
@@ -132,6 +132,11 @@ class HitRecorder:
         self.hits += len(requests)
         self._batch += 1
 
+    def stop(self, sim: Simulation, why: str) -> None:
+        """Record nothing more of `sim`, with one warning saying from which frame and why."""
+        sim.recorder = None
+        log.warn(f"dentdemo: the hit log stops at frame {self.frame(sim)}: {why}")
+
     def event(self, sim: Simulation, kind: str, body_id: str = "", value: float = 0.0) -> None:
         """An undo, reset, or a declared body's repair or new depth bound (a body not yet
         declared is declared with its bound when a hit first carves it, and a repair of a
@@ -214,27 +219,30 @@ def _added_spec(sim: Simulation, record: Body, where: str) -> BodySpec:
         raise DentdemoError(f"{where}: body '{record.id}' has a bad spec ({exc})") from None
 
 
-def _plan(sim: Simulation, records: Sequence[Record], names: Sequence[str]) -> None:
-    """Every body record checked against the scene before anything is carved: a scene body the
-    scene lacks (or whose shape or map differs), or an added body whose id is taken or whose spec
-    does not build, is one line naming the record."""
-    scene = {spec.id: spec for spec in sim.scene.bodies}
-    live = set(scene)
-    for at, record in zip(names, records, strict=True):
+class _Bodies:
+    """A log's body records against the scene, in order: a scene body the scene lacks (or whose
+    maps are another size), or an added body whose id is taken or whose spec does not build, is
+    one line naming the record."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+        self.scene = {spec.id for spec in sim.scene.bodies}
+        self.live = set(self.scene)
+
+    def see(self, record: Record, at: str) -> None:
         if isinstance(record, Event) and record.kind == "reset":
-            live = set(scene)
+            self.live = set(self.scene)
         if not isinstance(record, Body):
-            continue
+            return
         if record.spec.get("added"):
-            if record.id in live:
+            if record.id in self.live:
                 raise DentdemoError(f"{at}: added body '{record.id}' is already in the scene")
-            _added_spec(sim, record, at)
-            live.add(record.id)
-            continue
-        spec = scene.get(record.id)
-        if spec is None:
+            _added_spec(self.sim, record, at)
+            self.live.add(record.id)
+            return
+        if record.id not in self.scene:
             raise DentdemoError(f"{at}: body '{record.id}' is not in the scene")
-        body = sim.bodies.get(record.id)
+        body = self.sim.bodies.get(record.id)
         if body is not None and body.maps.size[0] != record.spec.get("map_size"):
             raise DentdemoError(
                 f"{at}: body '{record.id}' has {body.maps.size[0]}^2 maps in the scene, "
@@ -242,47 +250,69 @@ def _plan(sim: Simulation, records: Sequence[Record], names: Sequence[str]) -> N
             )
 
 
-def replay(sim: Simulation, records: Sequence[Record], names: Sequence[str] | None = None) -> int:
-    """Carve `records` (checked: model.hitlog.check) onto `sim`'s bodies, batch by batch, with
-    no physics step; returns the hits carved. Bodies the log added are added; a reset, undo or
-    repair is done where the log has it."""
-    where = list(names) if names is not None else [f"record {n + 1}" for n in range(len(records))]
-    _plan(sim, records, where)
-    ids: dict[int, str] = {}
-    pending: list[Press] = []
-    batch = -1
-    carved = 0
+class Replayer:
+    """Records carved onto a Simulation's bodies as they come (a file read whole, or a stream
+    from another process), with no physics step: a batch's hits are carved together by
+    `carve_many` once the next record shows the batch is whole (or at `finish`); bodies the log
+    added are added, and a reset, undo, repair or new depth bound is done where the log has it.
+    Each record is checked before anything of it is done."""
 
-    def flush() -> None:
-        nonlocal carved
-        if pending:
-            sim.carver.carve_many(pending)
-            carved += len(pending)
-            pending.clear()
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+        self.carved = 0
+        self._bodies = _Bodies(sim)
+        self._ids: dict[int, str] = {}
+        self._pending: list[Press] = []
+        self._batch = -1
 
-    for at, record in zip(where, records, strict=True):
+    def apply(self, record: Record, at: str) -> None:
+        sim = self.sim
         if isinstance(record, Hit):
-            if record.batch != batch:
-                flush()
-                batch = record.batch
-            pending.append(_press(sim, ids, record))
-            continue
-        flush()
+            if record.batch != self._batch:
+                self._flush()
+                self._batch = record.batch
+            self._pending.append(_press(sim, self._ids, record))
+            return
+        self._bodies.see(record, at)
+        self._flush()
         if isinstance(record, Body):
             if record.spec.get("added"):
                 sim.add_body(_added_spec(sim, record, at))
-            ids[record.index] = record.id
+            self._ids[record.index] = record.id
             sim.bodies[record.id].maps.max_dent_depth = float(record.spec["max_dent_depth"])
         elif record.kind == "undo":
             sim.undo()
         elif record.kind == "repair":
-            sim.repair(ids[record.body])
+            sim.repair(self._ids[record.body])
         elif record.kind == "reset":
             sim.reset()
         elif record.kind == "depth_bound":
-            sim.bodies[ids[record.body]].maps.max_dent_depth = record.value
-    flush()
-    return carved
+            sim.bodies[self._ids[record.body]].maps.max_dent_depth = record.value
+
+    def finish(self) -> int:
+        """Carve the last batch; returns the hits carved in all."""
+        self._flush()
+        return self.carved
+
+    def _flush(self) -> None:
+        if self._pending:
+            self.sim.carver.carve_many(self._pending)
+            self.carved += len(self._pending)
+            self._pending = []
+
+
+def replay(sim: Simulation, records: Sequence[Record], names: Sequence[str] | None = None) -> int:
+    """Carve a whole log's `records` (checked: model.hitlog.check) onto `sim`'s bodies; its
+    body records are checked against the scene first, so a bad one carves nothing. Returns the
+    hits carved."""
+    where = list(names) if names is not None else [f"record {n + 1}" for n in range(len(records))]
+    bodies = _Bodies(sim)
+    for at, record in zip(where, records, strict=True):
+        bodies.see(record, at)
+    replayer = Replayer(sim)
+    for at, record in zip(where, records, strict=True):
+        replayer.apply(record, at)
+    return replayer.finish()
 
 
 def _press(sim: Simulation, ids: dict[int, str], hit: Hit) -> Press:

@@ -627,7 +627,10 @@ def read_state(sim: Simulation, directory: Path) -> SavedState:
 
 def apply_state(sim: Simulation, state: SavedState) -> None:
     """Set a checked state: the simulation is reset to its scene first, so loading in a running
-    demo equals loading in a new process."""
+    demo equals loading in a new process. A hit log being written stops here (its records carve
+    from the scene as loaded; the state's maps are not carves)."""
+    if sim.recorder is not None:
+        sim.recorder.stop(sim, "a saved state was loaded")
     sim.reset()
     for body_id in state.removed:
         sim.remove_body(body_id)  # lost during the saved run (non-finite)

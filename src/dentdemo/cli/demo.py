@@ -57,6 +57,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "where the G key and the panel's export button write every body (default dentdemo.glb); "
         "with --exit-after, also written when the run ends",
     )
+    p.add_argument(
+        "--hit-log",
+        metavar="FILE",
+        help="write every carve as a record when the demo ends: .ddhl (binary) or .jsonl;"
+        " 'dentdemo replay' carves it back",
+    )
     p.set_defaults(handler=run)
 
 
@@ -69,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
     if args.screenshot is not None:
         shot = check_output_file("--screenshot", args.screenshot, PNG)
     gltf = check_gltf(args.gltf)
+    hit_log = _hit_log(args)
     exit_after = args.exit_after
     if shot is not None and exit_after is None:
         exit_after = FALLBACK_SECONDS  # a screenshot always ends the run
@@ -100,7 +107,25 @@ def run(args: argparse.Namespace) -> int:
     if args.materials:  # files the user named (the scene is watched too, silently)
         watched = [*args.materials, path]
         log.warn(f"dentdemo: watching {', '.join(map(str, watched))}: saved changes apply live")
-    return window.run(shot, exit_after, gltf if exit_after is not None else None)
+    if hit_log is None:
+        return window.run(shot, exit_after, gltf if exit_after is not None else None)
+    from dentdemo.app.hitlog import HitRecorder, write_log
+
+    recorder = HitRecorder()
+    recorder.attach(window.app.sim)
+    try:
+        return window.run(shot, exit_after, gltf if exit_after is not None else None)
+    finally:  # Esc, the end of --exit-after, or Ctrl-C: what was carved so far
+        write_log(hit_log, recorder.records)
+        print(f"wrote {hit_log} ({recorder.hits} hits)")
+
+
+def _hit_log(args: argparse.Namespace) -> Path | None:
+    if args.hit_log is None:
+        return None
+    from dentdemo.app.hitlog import check_log_path
+
+    return check_log_path("--hit-log", Path(args.hit_log))
 
 
 def _headless_instead(
@@ -118,8 +143,13 @@ def _headless_instead(
         file=sys.stderr,
     )
     gltf = check_gltf(args.gltf)
-    render_headless(path, args.materials, frames, out, args.size, quality=args.quality, gltf=gltf)
+    hit_log = _hit_log(args)
+    render_headless(
+        path, args.materials, frames, out, args.size, quality=args.quality, gltf=gltf,
+        hit_log=hit_log,
+    )  # fmt: skip
     print(f"wrote {out}")
-    if gltf is not None:
-        print(f"wrote {gltf}")
+    for written in (gltf, hit_log):
+        if written is not None:
+            print(f"wrote {written}")
     return 0

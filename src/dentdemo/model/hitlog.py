@@ -155,67 +155,74 @@ def _finite(where: str, name: str, values: Iterable[float]) -> None:
             raise HitLogError(f"{where}: {name} is not finite ({v})")
 
 
-def check(records: Iterable[Record], where: Iterable[str] | None = None) -> list[Record]:
-    """Every record checked against the log's rules, in order: bodies declared once and before
+class Checker:
+    """The log's rules, record by record (a file or a stream): bodies declared once and before
     any record names them, frames and batches never going back, a batch's hits contiguous and
-    in one frame, finite numbers, unit quaternions, non-zero directions, depths >= 0. Returns the
-    records; raises HitLogError naming the first bad one (`where` names each record: its line
-    or offset)."""
-    declared: set[int] = set()
-    frame = batch = batch_frame = -1
-    closed: set[int] = set()  # batches that another record has followed
-    out: list[Record] = []
-    names = iter(where) if where is not None else None
-    for n, record in enumerate(records):
-        at = next(names) if names is not None else f"record {n + 1}"
-        if record.frame < frame:
-            raise HitLogError(f"{at}: frame {record.frame} comes after frame {frame}")
-        frame = record.frame
+    in one frame, finite numbers, unit quaternions, non-zero directions, depths >= 0."""
+
+    def __init__(self) -> None:
+        self.declared: set[int] = set()
+        self.frame = self.batch = self.batch_frame = -1
+        self.closed: set[int] = set()  # batches that another record has followed
+
+    def add(self, record: Record, at: str) -> Record:
+        """`record`, or a HitLogError naming `at` (its line or offset)."""
+        if record.frame < self.frame:
+            raise HitLogError(f"{at}: frame {record.frame} comes after frame {self.frame}")
+        self.frame = record.frame
         if isinstance(record, Body):
-            if record.index in declared or not 0 <= record.index < MAX_BODIES:
+            if record.index in self.declared or not 0 <= record.index < MAX_BODIES:
                 raise HitLogError(f"{at}: body index {record.index} declared twice or out of range")
-            declared.add(record.index)
+            self.declared.add(record.index)
         elif isinstance(record, Hit):
-            for name, index in (("target", record.target), ("tool", record.tool)):
-                if index not in declared:
-                    raise HitLogError(f"{at}: {name} {index} names no body declared before it")
-            if record.batch != batch:
-                if record.batch < batch or record.batch in closed:
-                    raise HitLogError(f"{at}: batch {record.batch} is out of order")
-                closed.add(batch)
-                batch, batch_frame = record.batch, record.frame
-            elif record.frame != batch_frame:
-                raise HitLogError(f"{at}: batch {batch} spans frames {batch_frame} and {frame}")
-            _finite(at, "a number", _hit_numbers(record))
-            if not math.sqrt(sum(x * x for x in record.direction)) > 1e-12:
-                raise HitLogError(f"{at}: direction is zero")
-            units: list[tuple[str, tuple[float, ...]]] = []
-            for name, pose in (
-                ("target pose", record.target_pose),
-                ("tool pose", record.tool_pose),
-            ):
-                if len(pose) not in (7, 12):
-                    raise HitLogError(f"{at}: {name} has {len(pose)} numbers, not 7 or 12")
-                if len(pose) == 7:
-                    units.append((f"{name}'s quaternion", pose[3:]))
-            for name, v in units:
-                norm = math.sqrt(sum(x * x for x in v))
-                if abs(norm - 1.0) > 1e-6:
-                    raise HitLogError(f"{at}: {name} is not a unit vector (length {norm:g})")
-            if record.target_depth < 0 or record.tool_depth < 0:
-                raise HitLogError(f"{at}: a depth is negative")
+            self._hit(record, at)
         else:
             if record.kind not in EVENT_KINDS:
                 raise HitLogError(f"{at}: unknown record kind '{record.kind}'")
-            if record.kind in ("repair", "depth_bound") and record.body not in declared:
+            if record.kind in ("repair", "depth_bound") and record.body not in self.declared:
                 raise HitLogError(f"{at}: body {record.body} names no body declared before it")
             _finite(at, "value", [record.value])
             if record.kind == "depth_bound" and record.value <= 0:
                 raise HitLogError(f"{at}: depth bound must be > 0, got {record.value}")
-        if not isinstance(record, Hit) and batch >= 0:
-            closed.add(batch)
-        out.append(record)
-    return out
+        if not isinstance(record, Hit) and self.batch >= 0:
+            self.closed.add(self.batch)
+        return record
+
+    def _hit(self, record: Hit, at: str) -> None:
+        for name, index in (("target", record.target), ("tool", record.tool)):
+            if index not in self.declared:
+                raise HitLogError(f"{at}: {name} {index} names no body declared before it")
+        if record.batch != self.batch:
+            if record.batch < self.batch or record.batch in self.closed:
+                raise HitLogError(f"{at}: batch {record.batch} is out of order")
+            self.closed.add(self.batch)
+            self.batch, self.batch_frame = record.batch, record.frame
+        elif record.frame != self.batch_frame:
+            raise HitLogError(
+                f"{at}: batch {self.batch} spans frames {self.batch_frame} and {record.frame}"
+            )
+        _finite(at, "a number", _hit_numbers(record))
+        if not math.sqrt(sum(x * x for x in record.direction)) > 1e-12:
+            raise HitLogError(f"{at}: direction is zero")
+        for name, pose in (("target pose", record.target_pose), ("tool pose", record.tool_pose)):
+            if len(pose) not in (7, 12):
+                raise HitLogError(f"{at}: {name} has {len(pose)} numbers, not 7 or 12")
+            norm = math.sqrt(sum(x * x for x in pose[3:]))
+            if len(pose) == 7 and abs(norm - 1.0) > 1e-6:
+                raise HitLogError(f"{at}: {name}'s quaternion is not a unit vector ({norm:g})")
+        if record.target_depth < 0 or record.tool_depth < 0:
+            raise HitLogError(f"{at}: a depth is negative")
+
+
+def check(records: Iterable[Record], where: Iterable[str] | None = None) -> list[Record]:
+    """Every record checked (`Checker`), in order; returns them, or raises HitLogError naming the
+    first bad one (`where` names each record: its line or offset)."""
+    checker = Checker()
+    names = iter(where) if where is not None else None
+    return [
+        checker.add(record, next(names) if names is not None else f"record {n + 1}")
+        for n, record in enumerate(records)
+    ]
 
 
 def _hit_numbers(h: Hit) -> tuple[float, ...]:
@@ -301,7 +308,12 @@ def to_bytes(records: Iterable[Record]) -> bytes:
     """A whole log file: header, records, and the end record that tells a cut file."""
     encoder = Encoder()
     body = [encoder.encode(r) for r in records]
-    return header() + b"".join(body) + bytes([_KIND_END]) + _END.pack(len(body))
+    return header() + b"".join(body) + end(len(body))
+
+
+def end(count: int) -> bytes:
+    """The end record after `count` records (a stream's sender writes it when it is done)."""
+    return bytes([_KIND_END]) + _END.pack(count)
 
 
 class _Reader:
@@ -363,53 +375,100 @@ def _read_body(r: _Reader) -> Body:
     return Body(frame, index, name, spec)
 
 
-def _read_binary(data: bytes, source: str) -> Iterator[tuple[str, Record]]:
-    if data[:4] != MAGIC:
-        raise HitLogError(f"{source}: not a dentdemo hit log (no 'DDHL' at offset 0)")
-    if len(data) < 8:
+class Decoder:
+    """The binary form read as it arrives (a pipe, a socket): `feed` takes bytes and returns
+    the whole records they complete, each with its offset; `ended` once the end record came.
+    A malformed stream raises HitLogError naming the offset."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+        self._buffer = b""
+        self._consumed = 0  # stream offset of the buffer's first byte
+        self._header = False
+        self._frame = self._batch = -1
+        self.count = 0
+        self.ended = False
+
+    def feed(self, data: bytes) -> list[tuple[str, Record]]:
+        self._buffer += data
+        out: list[tuple[str, Record]] = []
+        if not self._header and not self._read_header():
+            return out
+        while self._buffer and not self.ended:
+            r = _Reader(self._buffer, 0)
+            at = f"{self.source}: record at offset {self._consumed}"
+            try:
+                record = self._record(r, at)
+            except struct.error:
+                return out  # a record cut by the stream: wait for the rest
+            except (ValueError, KeyError, TypeError) as exc:
+                if isinstance(exc, HitLogError):
+                    raise
+                raise HitLogError(f"{at}: bad body record ({exc})") from None
+            self._buffer = self._buffer[r.offset :]
+            self._consumed += r.offset
+            if record is not None:
+                out.append((at, record))
+        if self.ended and self._buffer:
+            raise HitLogError(f"{self.source}: bytes after the end record")
+        return out
+
+    def _read_header(self) -> bool:
+        data = self._buffer
+        if len(data) >= 4 and data[:4] != MAGIC:
+            raise HitLogError(f"{self.source}: not a dentdemo hit log (no 'DDHL' at offset 0)")
+        if len(data) < 8:
+            return False
+        version, schema_len = struct.unpack_from("<HH", data, 4)
+        if version != VERSION:
+            raise HitLogError(
+                f"{self.source}: version {version}, this dentdemo reads version {VERSION}"
+            )
+        if len(data) < 8 + schema_len:
+            return False
+        self._buffer = data[8 + schema_len :]
+        self._consumed = 8 + schema_len
+        self._header = True
+        return True
+
+    def _record(self, r: _Reader, at: str) -> Record | None:
+        """The next record (None: a batch record, which only sets the frame and batch)."""
+        kind = r.raw(1)[0]
+        if kind == _KIND_END:
+            (expected,) = r.take(_END)
+            if expected != self.count:
+                raise HitLogError(f"{at}: the end record counts {expected}, not {self.count}")
+            self.ended = True
+            return None
+        if kind == _KIND_BATCH:
+            (self._frame,) = r.take(_BATCH)
+            self._batch += 1
+            return None
+        if kind == _KIND_HIT:
+            if self._batch < 0:
+                raise HitLogError(f"{at}: a hit before any batch record")
+            record: Record = _read_hit(r, self._frame, self._batch)
+        elif kind == _KIND_BODY:
+            record = _read_body(r)
+        elif kind in _EVENT_OF:
+            when, who, value = r.take(_EVENT)
+            record = Event(when, _EVENT_OF[kind], -1 if who == _NO_BODY else who, value)
+        else:
+            raise HitLogError(f"{at}: unknown record kind {kind}")
+        self.count += 1
+        return record
+
+
+def _read_binary(data: bytes, source: str) -> list[tuple[str, Record]]:
+    decoder = Decoder(source)
+    records = decoder.feed(data)
+    if not decoder._header:
         raise HitLogError(f"{source}: truncated header")
-    version, schema_len = struct.unpack_from("<HH", data, 4)
-    if version != VERSION:
-        raise HitLogError(f"{source}: version {version}, this dentdemo reads version {VERSION}")
-    r = _Reader(data, 8 + schema_len)
-    if r.offset > len(data):
-        raise HitLogError(f"{source}: truncated header (schema of {schema_len} bytes)")
-    frame = batch = -1
-    count = 0
-    while r.offset < len(data):
-        at = f"{source}: record at offset {r.offset}"
-        kind = data[r.offset]
-        r.offset += 1
-        try:
-            if kind == _KIND_END:
-                (expected,) = r.take(_END)
-                if expected != count or r.offset != len(data):
-                    raise HitLogError(f"{at}: the end record does not end the log")
-                return
-            if kind == _KIND_BATCH:
-                (frame,) = r.take(_BATCH)
-                batch += 1
-                continue
-            if kind == _KIND_HIT:
-                if batch < 0:
-                    raise HitLogError(f"{at}: a hit before any batch record")
-                record: Record = _read_hit(r, frame, batch)
-            elif kind == _KIND_BODY:
-                record = _read_body(r)
-            elif kind in _EVENT_OF:
-                when, who, value = r.take(_EVENT)
-                record = Event(when, _EVENT_OF[kind], -1 if who == _NO_BODY else who, value)
-            else:
-                raise HitLogError(f"{at}: unknown record kind {kind}")
-        except struct.error:
-            raise HitLogError(f"{at}: truncated") from None
-        except (ValueError, KeyError, TypeError) as exc:
-            if isinstance(exc, HitLogError):
-                raise
-            raise HitLogError(f"{at}: bad body record ({exc})") from None
-        count += 1
-        yield at, record
-    raise HitLogError(f"{source}: truncated at offset {len(data)} (no end record)")
+    if not decoder.ended:
+        if decoder._buffer:
+            raise HitLogError(f"{source}: record at offset {decoder._consumed}: truncated")
+        raise HitLogError(f"{source}: truncated at offset {len(data)} (no end record)")
+    return records
 
 
 # -- JSON Lines --------------------------------------------------------------------------------
@@ -530,7 +589,7 @@ def parse(data: bytes, source: str) -> list[Record]:
 def parse_placed(data: bytes, source: str) -> tuple[list[Record], list[str]]:
     """`parse`, and where each record is (`source: line N` or `source: record at offset N`)."""
     if data[:4] == MAGIC:
-        pairs = list(_read_binary(data, source))
+        pairs = _read_binary(data, source)
     else:
         try:
             text = data.decode("utf-8")
