@@ -317,7 +317,7 @@ def replay(sim: Simulation, records: Sequence[Record], names: Sequence[str] | No
 
 def _press(sim: Simulation, ids: dict[int, str], hit: Hit) -> Press:
     target, tool = sim.bodies[ids[hit.target]], sim.bodies[ids[hit.tool]]
-    return (
+    return Press(
         CarveBody(target.gpu_mesh, target.maps, hitlog.pose_matrix(hit.target_pose)),
         CarveBody(tool.gpu_mesh, tool.maps, hitlog.pose_matrix(hit.tool_pose)),
         ContactFrame(np.array(hit.point), np.array(hit.direction)),
