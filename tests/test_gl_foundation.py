@@ -207,7 +207,7 @@ def test_uniform_declarations_are_read_from_the_source():
     assert uniform_names(source) == ["u_a", "u_b", "u_c", "u_map"]
 
 
-def test_a_uniform_no_shader_declares_raises_in_strict_mode(gl, monkeypatch):
+def test_a_uniform_no_shader_declares_raises(gl):
     from dentdemo.carve.texel_passes import texture_space_passes
     from dentdemo.gl.shaders import library_uniforms
 
@@ -220,18 +220,52 @@ def test_a_uniform_no_shader_declares_raises_in_strict_mode(gl, monkeypatch):
     normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_size": (4, 4)})
     # A variant selector is not a uniform.
     normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_swept": True})
-    with pytest.raises(ShaderError, match="u_map_sise"):
-        normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
-    monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "0")
-    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
-    # Skipped names are remembered per program, but only those some shader declares: the
-    # misspelt one is checked again, and raises again once the check is back on.
-    monkeypatch.setenv("DENTDEMO_STRICT_UNIFORMS", "1")
-    with pytest.raises(ShaderError, match="u_map_sise"):
-        normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
+    # Always, with no environment to switch it: skipped names are remembered per program, but
+    # only those some shader declares, so the misspelt one raises each time.
+    for _ in range(2):
+        with pytest.raises(ShaderError, match="u_map_sise"):
+            normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
     normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_size": (4, 4)})
     assert "u_map_size" in normals.program.extra.absent
     release(fbo, target)
+
+
+def test_each_carve_program_is_held_to_its_familys_typed_uniforms(gl):
+    """A program that keeps a uniform its family's dataclass lacks is refused when it is built
+    (naming the program and the uniform), and so is a family field that no shader declares."""
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from dentdemo.carve.params import (
+        Camera,
+        Pose,
+        SurfaceUniforms,
+        TexelUniforms,
+        _Family,
+        check_program,
+        family_names,
+    )
+    from dentdemo.carve.texel_passes import texture_space_passes
+
+    passes = texture_space_passes(gl)
+    gather = passes["gather", 0, False, True, False]
+    check_program(gather.program, TexelUniforms, gather.samplers, "gather")  # as built
+    assert "u_min_height" in gather.program
+    with pytest.raises(ShaderError, match=r"gather.*u_min_height.*SurfaceUniforms"):
+        check_program(gather.program, SurfaceUniforms, gather.samplers, "gather")
+    with pytest.raises(ShaderError, match="u_address"):  # its samplers are named by the pass
+        check_program(gather.program, TexelUniforms, (), "gather")
+
+    @dataclass(frozen=True)
+    class Misspelt:
+        u_eyes: tuple[float, float, float]
+
+    @dataclass(frozen=True)
+    class Family(_Family):
+        GROUPS: ClassVar[tuple[type, ...]] = (Camera, Pose, Misspelt)
+
+    with pytest.raises(ShaderError, match="u_eyes"):
+        family_names(Family)
 
 
 def test_a_uniform_set_again_to_its_value_is_skipped_and_a_new_value_is_not(gl):

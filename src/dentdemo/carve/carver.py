@@ -27,6 +27,7 @@ from dentdemo.carve.camera import (
 )
 from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
 from dentdemo.carve.linear import inverse3
+from dentdemo.carve.params import Advance, Gather, Quad, Rect, SurfaceUniforms, check_program
 from dentdemo.carve.texel_passes import (
     CHART,
     GUTTER,
@@ -229,7 +230,7 @@ def _texel_draws(
     if boxes and area <= rects * count:
         size = job.target.maps.size
         for x0, y0, x1, y1 in boxes:
-            yield RECT, quad, {"u_rect": (x0, y0, x1 - x0, y1 - y0), "u_viewport": size}
+            yield RECT, quad, Rect(u_rect=(x0, y0, x1 - x0, y1 - y0), u_viewport=size).values()
     else:
         yield CHART, gpu_mesh.drawer(cam.target_texels, "texels0"), None
     if len(cam.target_gutter):
@@ -266,6 +267,9 @@ def _from_neutral(ctx: moderngl.Context) -> Iterator[None]:
 
 #: Poses whose uniforms the carver keeps (a burst's bodies; cleared when full).
 POSES_KEPT = 256
+
+#: Passes 2 and 3's variants that draw a swept solid as one quad.
+_QUADS = ((True, Quad.SPHERE), (True, Quad.CAPSULE))
 
 #: Pass 3's blend: the farthest back face and the coverage (red, green: MAX), the nearest front
 #: face (alpha: MIN); order-independent, so the result is the same whatever order faces come in.
@@ -343,10 +347,10 @@ class Carver:
         atlas = sphere_atlas_defines()
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
         #: is a sphere or capsule drawn as one quad: QUAD 1, 2).
-        self._surface = {
-            (name, swept, quad): Pass(
-                name,
-                program(
+        self._surface: dict[tuple[str, bool, Quad], Pass] = {}
+        for name, (state, samplers) in _SURFACE_PASSES.items():
+            for swept, quad in ((False, Quad.NONE), (True, Quad.NONE), *_QUADS):
+                prog = program(
                     gl.cache,
                     gl.ctx,
                     "carve/quad.vert" if quad else "carve/surface.vert",
@@ -355,14 +359,10 @@ class Carver:
                     defines=shader_defines(
                         SWEPT=int(swept), QUAD=int(quad), PLANE=int(name == "peel"), **atlas
                     ),
-                ),
-                state,
-                samplers,
-                VARIANT_KEYS,
-            )
-            for name, (state, samplers) in _SURFACE_PASSES.items()
-            for swept, quad in ((False, 0), (True, 0), (True, 1), (True, 2))
-        }
+                )
+                key = (name, swept, quad)
+                check_program(prog, SurfaceUniforms, samplers, f"carve pass {key}")
+                self._surface[key] = Pass(name, prog, state, samplers, VARIANT_KEYS)
         self._quad_vaos: dict[int, moderngl.VertexArray] = {}
         self._texel = texture_space_passes(gl)
         #: The cameras of the last hit (for the address-map debug view and tests).
@@ -521,7 +521,7 @@ class Carver:
         if cube_grid(mesh):  # _texel_draws' rectangles
             yield "gather", self._texel["gather", RECT, True, True, True], ""
             yield "normals", self._texel["normals", RECT, False], ""
-        quad = quad_kind(mesh) if self._switches.swept_quads else 0
+        quad = quad_kind(mesh) if self._switches.swept_quads else Quad.NONE
         surfaces = ["peel"] + (
             ["address"] if self._options.address_every_target or not convex else []
         )
@@ -647,18 +647,14 @@ class Carver:
     ) -> CarveJob | None:
         if camera is None:
             return None
-        view = camera_uniforms(camera)
+        view = camera_uniforms(camera).values()
+        press = Advance(u_near_clip=camera.ring_slab[0], u_advance=depth)
         return CarveJob(
             target,
             tool,
             advanced,
             camera,
-            {
-                **view,
-                **self._pose_uniforms(target.gpu_mesh.mesh, target.model),
-                "u_near_clip": camera.ring_slab[0],
-                "u_advance": depth,
-            },
+            {**view, **self._pose_uniforms(target.gpu_mesh.mesh, target.model), **press.values()},
             {**view, **self._pose_uniforms(tool.gpu_mesh.mesh, advanced)},
             oblique=_oblique(target, camera),
             convex=target.gpu_mesh.mesh.bound is not None,
@@ -726,7 +722,7 @@ class Carver:
         items: list[tuple] = []
         for job, texel_draws in zip(jobs, draws, strict=True):
             cam, maps = job.camera, job.target.maps
-            uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab)}
+            uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab).values()}
             for kind, draw, own in texel_draws:
                 pass_ = self._texel["normals", kind, False]
                 values = {**uniforms, **own} if own else uniforms
@@ -744,12 +740,15 @@ class Carver:
         for job, texel_draws in zip(jobs, draws, strict=True):
             cam, maps = job.camera, job.target.maps
             px, py = cam.pixel_metres
+            bounds = Gather(
+                u_min_height=-maps.max_dent_depth,
+                u_ceiling=maps.max_height,
+                u_pixel_diagonal=math.hypot(px, py),
+            )
             uniforms = {
                 **job.target_uniforms,
-                **clip_uniforms(cam, maps, cam.slab),
-                "u_min_height": -maps.max_dent_depth,
-                "u_ceiling": maps.max_height,
-                "u_pixel_diagonal": math.hypot(px, py),
+                **clip_uniforms(cam, maps, cam.slab).values(),
+                **bounds.values(),
             }
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it

@@ -26,7 +26,7 @@ from dentdemo.carve.constants import (
     TOOL_SUBPIXELS,
 )
 from dentdemo.carve.linear import column_scale
-from dentdemo.carve.texel_passes import swept_uniforms
+from dentdemo.carve.texel_passes import swept_solid
 from dentdemo.gl.context import GLContext
 from dentdemo.mesh.thickness import vertex_thickness
 
@@ -139,10 +139,10 @@ class CpuReference:
 def snap_to_solid(t: Texels, body: CarveBody) -> None:
     """A built-in sphere or capsule: move each texel's point along the solid's normal onto its
     smooth surface (as swept.glsl), in place."""
-    uniforms = swept_uniforms(body.gpu_mesh.mesh, body.model)
-    if not uniforms["u_swept"] or not len(t.world):
+    solid = swept_solid(body.gpu_mesh.mesh, body.model)
+    if solid is None or not len(t.world):
         return
-    a, b = np.asarray(uniforms["u_swept_a"]), np.asarray(uniforms["u_swept_b"])
+    a, b = np.asarray(solid.u_swept_a), np.asarray(solid.u_swept_b)
     ab = b - a
     length2 = float(ab @ ab)
     f = np.clip((t.world - a) @ ab / length2, 0.0, 1.0) if length2 > 0 else np.zeros(len(t.world))
@@ -150,9 +150,7 @@ def snap_to_solid(t: Texels, body: CarveBody) -> None:
     n = t.world - axis
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     t.normal = n
-    radius = uniforms["u_swept_radius"]
-    assert isinstance(radius, float)
-    t.world = axis + radius * n
+    t.world = axis + solid.u_swept_radius * n
 
 
 def gather(

@@ -11,6 +11,16 @@ from numpy.typing import NDArray
 from dentdemo.carve.camera import CollisionCamera
 from dentdemo.carve.constants import shader_defines
 from dentdemo.carve.linear import column_scale, inverse3
+from dentdemo.carve.params import (
+    Camera,
+    Clip,
+    Pose,
+    Quad,
+    Swept,
+    TexelDraw,
+    TexelUniforms,
+    check_program,
+)
 from dentdemo.gl.context import GLContext
 from dentdemo.gl.passes import MIN_BLEND, Pass, PassState
 from dentdemo.gl.shaders import program
@@ -30,7 +40,7 @@ _NORMALS = PassState(clip_distances=CLIP_DISTANCES)
 #: texels of the footprint's triangles, the gutter texels around their chart borders
 #: (texel.geom), or a built-in sphere's chart texels in rectangles (util/rect.vert: the facet
 #: under each texel worked out from the sphere's atlas, cube_grid.glsl).
-CHART, GUTTER, RECT = 0, 1, 2
+CHART, GUTTER, RECT = TexelDraw.CHART, TexelDraw.GUTTER, TexelDraw.RECT
 
 
 def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
@@ -76,7 +86,9 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
                     geometry,
                     defines=shader_defines(GUTTER=int(draw == GUTTER), **defines),
                 )
-                passes[(name, draw, *variant)] = Pass(name, prog, state, samplers, VARIANT_KEYS)
+                which = (name, draw, *variant)
+                check_program(prog, TexelUniforms, samplers, f"carve pass {which}")
+                passes[which] = Pass(name, prog, state, samplers, VARIANT_KEYS)
     gl.cache[key] = passes
     return passes
 
@@ -105,7 +117,7 @@ def rebuild_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None
     chart texels, then the gutter texels around the chart-border triangles. A hit's pass 5 is
     `Carver._normal_passes`, over its footprint."""
     passes = texture_space_passes(gl)
-    uniforms = {**model_uniforms(np.eye(4)), "u_map_size": maps.size, "u_clip": False}
+    uniforms = TexelUniforms(model_uniforms(np.eye(4)), Clip(u_clip=False, u_map_size=maps.size))
     border = np.nonzero(gpu_mesh.mesh.chart_border())[0]
     for kind, triangles in ((CHART, None), (GUTTER, border)):
         if triangles is not None and len(triangles) == 0:
@@ -116,78 +128,81 @@ def rebuild_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None
             (0, 0, *maps.size),
             gpu_mesh.drawer(triangles, f"texels{kind}"),
             (maps.height, maps.mask),
-            uniforms,
+            uniforms.values(),
         )
 
 
-def camera_uniforms(cam: CollisionCamera) -> dict[str, object]:
-    return {
-        "u_eye": tuple(cam.eye),
-        "u_right": tuple(cam.right),
-        "u_up": tuple(cam.up),
-        "u_forward": tuple(cam.forward),
-        "u_half_extent": cam.half_extent,
-        "u_depth_range": cam.depth_range,
-        "u_resolution": cam.resolution,
-    }
+def camera_uniforms(cam: CollisionCamera) -> Camera:
+    x, y, z = cam.eye.tolist()
+    return Camera(
+        u_eye=(x, y, z),
+        u_right=_vec3(cam.right),
+        u_up=_vec3(cam.up),
+        u_forward=_vec3(cam.forward),
+        u_half_extent=cam.half_extent,
+        u_depth_range=cam.depth_range,
+        u_resolution=cam.resolution,
+    )
 
 
-def clip_uniforms(
-    cam: CollisionCamera, maps: SurfaceMaps, slab: tuple[float, float]
-) -> dict[str, object]:
+def _vec3(v: NDArray[np.float64]) -> tuple[float, float, float]:
+    x, y, z = v.tolist()
+    return x, y, z
+
+
+def clip_uniforms(cam: CollisionCamera, maps: SurfaceMaps, slab: tuple[float, float]) -> Clip:
     """Keep the texels whose surface projects inside the camera and lies in `slab` (view depth)."""
-    return {
-        "u_clip": True,
-        "u_map_size": maps.size,
-        "u_clip_half": cam.half_extent,
-        "u_slab": slab,
-    }
+    return Clip(u_clip=True, u_map_size=maps.size, u_clip_half=cam.half_extent, u_slab=slab)
 
 
-#: Keys of the carve's uniform dicts that pick a pass's variant (SWEPT, QUAD) and name no uniform.
+#: Keys of the carve's uniform dicts that pick a pass's variant (SWEPT: a bool, QUAD: a `Quad`)
+#: and name no uniform.
 VARIANT_KEYS = frozenset({"u_swept", "u_quad"})
 
 
-def swept_uniforms(
+def swept_solid(
     mesh: Mesh, model: NDArray[np.float64], inverse: NDArray[np.float64] | None = None
-) -> dict[str, object]:
-    """A built-in sphere or capsule's own solid (world metres) for the passes that put points on
-    its smooth surface; other meshes keep their facets (`u_swept` false). `u_swept` picks the
-    passes' SWEPT variant and `u_quad` their QUAD variant; the programs have neither uniform.
-    `inverse`: the inverse of the pose's linear part, where the caller has it."""
+) -> Swept | None:
+    """A built-in sphere or capsule's own solid (world metres) for the passes that put points
+    on its smooth surface; None for other meshes, which keep their facets. `inverse`: the
+    inverse of the pose's linear part, where the caller has it."""
     bound = mesh.bound
     if bound is None or bound.segment is None or not bound.exact:
-        return {"u_swept": False}
+        return None
     m = np.asarray(model, dtype=np.float64)
     linear = m[:3, :3]
     ends = bound.segment @ linear.T + m[:3, 3]
     if inverse is None:
         inverse = inverse3(linear)
-    # The solid's radius scales with the pose's largest column (a rotation times a scale).
-    uniforms: dict[str, object] = {
-        "u_swept": True,
-        "u_swept_a": tuple(ends[0].tolist()),
-        "u_swept_b": tuple(ends[1].tolist()),
-        "u_swept_radius": bound.radius * column_scale(linear),
-        # Passes 2 and 3 draw a sphere (QUAD 1) or a capsule (QUAD 2) as one quad.
-        "u_quad": bound.quad,
-        "u_swept_local": inverse.astype("f4").tobytes(order="F"),  # local from world, column-major
-    }
-    if bound.quad == 1 and bound.grid > 0:  # cube_grid.glsl: passes 4 and 5 as rects
-        uniforms["u_cube_grid"] = bound.grid
-        uniforms["u_cube_radius"] = bound.radius
-    if bound.quad == 2:  # capsule_uv.glsl: local radius, half length, rows
+    grid = bound.quad == Quad.SPHERE and bound.grid > 0  # cube_grid.glsl: passes 4, 5 as rects
+    capsule = None
+    if bound.quad == Quad.CAPSULE:  # capsule_uv.glsl: local radius, half length, rows
         half = float(np.linalg.norm(bound.segment[1] - bound.segment[0])) / 2
-        uniforms["u_capsule"] = (bound.radius, half, float(bound.rings))
-    return uniforms
+        capsule = (bound.radius, half, float(bound.rings))
+    return Swept(
+        u_swept_a=_vec3(ends[0]),
+        u_swept_b=_vec3(ends[1]),
+        # The solid's radius scales with the pose's largest column (a rotation times a scale).
+        u_swept_radius=bound.radius * column_scale(linear),
+        u_swept_local=inverse.astype("f4").tobytes(order="F"),  # local from world, column-major
+        u_cube_grid=bound.grid if grid else None,
+        u_cube_radius=bound.radius if grid else None,
+        u_capsule=capsule,
+    )
 
 
 def pose_uniforms(mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
-    """`model_uniforms` and `swept_uniforms` of `mesh` posed at `model` (one inverse of the
-    pose for both)."""
+    """The `Pose` and `swept_solid` uniforms of `mesh` posed at `model` (one inverse of the pose
+    for both), with the selectors of the passes' variants: `u_swept` (SWEPT) and `u_quad`
+    (QUAD: passes 2 and 3 draw a sphere or a capsule as one quad)."""
     m = np.asarray(model, dtype=np.float64)
     inverse = inverse3(m[:3, :3])
-    return {**model_uniforms(m, inverse), **swept_uniforms(mesh, m, inverse)}
+    swept = swept_solid(mesh, m, inverse)
+    selectors: dict[str, object] = {"u_swept": swept is not None}
+    if swept is not None:
+        selectors["u_quad"] = quad_kind(mesh)
+        selectors.update(swept.values())
+    return {**model_uniforms(m, inverse).values(), **selectors}
 
 
 def is_swept(mesh: Mesh) -> bool:
@@ -196,11 +211,11 @@ def is_swept(mesh: Mesh) -> bool:
     return bound is not None and bound.exact and bound.segment is not None
 
 
-def quad_kind(mesh: Mesh) -> int:
+def quad_kind(mesh: Mesh) -> Quad:
     """How passes 2 and 3 may draw a built-in shape as one quad (its QUAD variant): 1 a sphere,
     2 a capsule, 0 not (`Bound.quad`)."""
     bound = mesh.bound
-    return 0 if bound is None else bound.quad
+    return Quad(0 if bound is None else bound.quad)
 
 
 def cube_grid(mesh: Mesh) -> int:
@@ -210,16 +225,14 @@ def cube_grid(mesh: Mesh) -> int:
     return bound.grid if bound is not None and bound.quad == 1 else 0
 
 
-def model_uniforms(
-    model: NDArray[np.float64], inverse: NDArray[np.float64] | None = None
-) -> dict[str, object]:
+def model_uniforms(model: NDArray[np.float64], inverse: NDArray[np.float64] | None = None) -> Pose:
     """The pose (world from local) and its normal matrix, column-major; `inverse`: the inverse
     of its linear part, where the caller has it."""
     m = np.asarray(model, dtype=np.float64)
     if inverse is None:
         inverse = inverse3(m[:3, :3])
-    return {
-        "u_model": m.astype("f4").tobytes(order="F"),  # column-major
+    return Pose(
+        u_model=m.astype("f4").tobytes(order="F"),  # column-major
         # The normal matrix inverse.T, column-major: the inverse's rows.
-        "u_normal_matrix": inverse.astype("f4").tobytes(),
-    }
+        u_normal_matrix=inverse.astype("f4").tobytes(),
+    )

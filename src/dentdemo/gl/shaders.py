@@ -5,13 +5,11 @@ detection, `#line` markers so compile and link errors name the offending file an
 from __future__ import annotations
 
 import functools
-import os
 import re
 import struct
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import moderngl
 
@@ -239,12 +237,6 @@ def library_uniforms(root: Path | None = None) -> frozenset[str]:
     )
 
 
-def strict_uniforms() -> bool:
-    """$DENTDEMO_STRICT_UNIFORMS=1 (the test suite sets it): writing a name that no shader file
-    declares raises instead of being ignored."""
-    return os.environ.get("DENTDEMO_STRICT_UNIFORMS") == "1"
-
-
 def set_uniforms(
     prog: moderngl.Program, uniforms: Mapping[str, object], selectors: frozenset[str] = frozenset()
 ) -> None:
@@ -280,14 +272,10 @@ def _remember(last: dict[str, object], name: str, value: object, comparable: boo
 
 def _writer(member: moderngl.Uniform) -> Callable[[object], None]:
     """What `set_uniform` does to `member` for a value, in one call: bytes written as they are
-    (matrices, column-major float32), else packed by the uniform's format, and handed to the
-    context's uniform write that moderngl's `Uniform.value` ends in (moderngl 5.9 and later
-    keep its arguments on the member; others, and arrays, go through `value`)."""
-    parts = ("ctx", "program_obj", "location", "gl_type", "array_length", "element_size")
-    kept: dict[str, Any] = {
-        part: getattr(member, part, None) for part in (*parts, "fmt", "dimension")
-    }
-    if any(value is None for value in kept.values()) or kept["array_length"] != 1:
+    (matrices, column-major float32), else packed by the uniform's format, through moderngl's
+    `Uniform.write`; arrays go through `value`."""
+    fmt, dimension = getattr(member, "fmt", None), getattr(member, "dimension", None)
+    if fmt is None or dimension is None or getattr(member, "array_length", 1) != 1:
 
         def through_value(value: object) -> None:
             if isinstance(value, bytes):
@@ -296,9 +284,9 @@ def _writer(member: moderngl.Uniform) -> Callable[[object], None]:
                 member.value = value
 
         return through_value
-    raw = functools.partial(kept["ctx"]._write_uniform, *(kept[part] for part in parts[1:]))
-    pack = struct.Struct(kept["fmt"]).pack
-    many = kept["dimension"] > 1
+    raw = member.write
+    pack = struct.Struct(fmt).pack
+    many = dimension > 1
 
     def write(value: object) -> None:
         if isinstance(value, bytes):
@@ -317,9 +305,9 @@ def set_uniform(
     """Set a uniform if the program has it: a pass's uniforms are shared by its variants and by
     the passes of one hit, and compilers drop uniforms a variant does not use (the normal pass
     never reads the scatter's height, for one), so a name this program lacks is skipped.
-    `selectors` are keys that pick a pass's variant rather than name a uniform. Under
-    `strict_uniforms()` a name that no shader file declares at all (a misspelling, a uniform
-    renamed in a shader but not in Python) raises ShaderError."""
+    `selectors` are keys that pick a pass's variant rather than name a uniform. A name that no
+    shader file declares at all (a misspelling, a uniform renamed in a shader but not in
+    Python) raises ShaderError."""
     declared = prog.extra if isinstance(prog.extra, _Declared) else None
     comparable = isinstance(value, _COMPARABLE)
     if declared is not None and comparable and declared.last.get(name, _UNSET) == value:
@@ -327,7 +315,7 @@ def set_uniform(
     member = prog.get(name, None)  # a dict look-up; `name in prog` walks every member
     if member is None:
         known = name in selectors or name in library_uniforms()
-        if not known and strict_uniforms():
+        if not known:
             files = declared.files if declared is not None else "a program"
             raise ShaderError(f"{files}: no shader declares a uniform named '{name}'")
         if known and declared is not None:  # an unknown name is checked again each time
