@@ -620,6 +620,16 @@ def materials_cases() -> list[Case]:
             "[calibration]\nk_per_compliance = 1e308\n",
             (m, "k_per_compliance", "range [0, 1e+10]"),
         ),
+        (  # issue 46 item 8: the panel would show "tinlive" for this name
+            "name_right_to_left_override",
+            tin("[materials.tin]", '[materials."tin\u202eevil"]'),
+            (m, "materials.'tin\\u202eevil'", "holds \\u202e"),
+        ),
+        (
+            "name_too_long",
+            tin("[materials.tin]", "[materials." + "t" * 65 + "]"),
+            (m, "1 to 64 printable characters"),
+        ),
         (
             "y_unit_1e308",
             "[calibration]\nY_unit_Ns = 1e308\n",

@@ -6,6 +6,7 @@ live in a private mount namespace (tests/faults_helpers.py), never on the machin
 from __future__ import annotations
 
 import os
+import shutil
 import socket
 import stat
 from pathlib import Path
@@ -266,3 +267,111 @@ def test_a_killed_videos_file_is_removed_by_the_next_render_to_it(tmp_path, caps
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
         [alive.name, other.name, "o.png", "v.mp4"]
     )
+
+
+def _timed(argv: list[object]) -> str:
+    """A shell line running dentdemo ARGV, then printing `rc=N` and `ns=START END` (clock)."""
+    return separated("s=$(date +%s%N); " + dentdemo_line(*argv) + '; echo "ns=$s $(date +%s%N)"')
+
+
+@needs_namespace
+def test_endless_and_blocking_inputs_are_one_line_within_a_second(tmp_path):
+    """/dev/zero (a device node of the test's own namespace; a link to it) and a FIFO as a
+    scene, a materials file or a saved map: each was read until memory ran out (a MemoryError
+    traceback) or blocked forever. Each is now one line, within a second of the same command
+    refusing a small malformed file (the process's start is most of both)."""
+    from cli_helpers import dentdemo
+
+    d = tmp_path / "dev"
+    d.mkdir()
+    (tmp_path / "bad.toml").write_text("[materials\n")
+    state = tmp_path / "S"
+    done = dentdemo(
+        "render",
+        "--frames",
+        "2",
+        "--size",
+        "32x18",
+        "--out",
+        tmp_path / "r.png",
+        "--save-state",
+        state,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    for name, replace in (("Szero", "zero"), ("Sfifo", "fifo")):
+        shutil.copytree(state, tmp_path / name)
+        plate = tmp_path / name / "steel_plate.npy"
+        plate.unlink()
+        if replace == "fifo":
+            os.mkfifo(plate)
+        else:
+            plate.symlink_to(d / "zero")
+    os.mkfifo(tmp_path / "fifo.toml")
+    setup = [
+        f"mount -t tmpfs -o size=1m none {d}",
+        f"mknod {d}/zero c 1 5",
+        f"ln -s {d}/zero {tmp_path}/zero.toml",
+        "ulimit -v 8000000",  # the old reader's end: MemoryError at 8 GB, not the machine's
+    ]
+    render = ["render", "--frames", "1", "--size", "32x18", "--out", tmp_path / "x.png"]
+    runs = [
+        (["materials", "--materials", tmp_path / "bad.toml"], "malformed TOML"),  # the baseline
+        (["materials", "--materials", d / "zero"], "a character device, not a regular file"),
+        (["materials", "--materials", tmp_path / "zero.toml"], "a character device"),
+        (["materials", "--materials", tmp_path / "fifo.toml"], "a FIFO, not a regular file"),
+        (["simulate", "--steps", "1", "--scene", tmp_path / "zero.toml"], "a character device"),
+        (["simulate", "--steps", "1", "--scene", tmp_path / "fifo.toml"], "a FIFO"),
+        ([*render, "--scene", tmp_path / "fifo.toml"], "a FIFO"),
+        ([*render, "--load-state", tmp_path / "Szero"], "a character device"),
+        ([*render, "--load-state", tmp_path / "Sfifo"], "a FIFO"),
+    ]
+    lines = [_timed(argv) for argv, _ in runs]
+    done = in_namespace(setup, lines, tmp_path, timeout=240)
+    got = results(done)
+    spans = [line[3:].split() for line in done.stdout.splitlines() if line.startswith("ns=")]
+    seconds = [(int(end) - int(start)) * 1e-9 for start, end in spans]
+    assert len(got) == len(runs) == len(seconds), done.stderr
+    for (argv, fragment), (code, err) in zip(runs, got, strict=True):
+        assert code == 1 and len(err) == 1 and fragment in err[0], (argv, code, err)
+    materials = seconds[:4]
+    assert max(materials[1:]) < materials[0] + 1.0, seconds
+
+
+def test_a_fifo_is_never_opened_by_a_reader_or_the_watcher(tmp_path):
+    """The demo's watcher read a watched FIFO and froze the window (Esc ignored); a 200 MB
+    watched file was hashed five times a second (22 -> 3.4 fps). The watcher and load_toml
+    return at once on a FIFO (run in a thread: a blocked open would keep it alive), and a
+    file over the bound is fingerprinted by its size, not read."""
+    import threading
+
+    from dentdemo.app.watch import FileWatcher
+    from dentdemo.errors import ConfigError
+    from dentdemo.model.validate import TOML_MAX, load_toml
+
+    fifo = tmp_path / "m.toml"
+    os.mkfifo(fifo)
+    big = tmp_path / "big.toml"
+    with open(big, "wb") as handle:
+        handle.truncate(200 << 20)  # sparse: 200 MB of zeros
+    seen: list[object] = []
+
+    def work() -> None:
+        watcher = FileWatcher((fifo, big))
+        seen.append(watcher._known[fifo])
+        seen.append(watcher._known[big])
+        try:
+            load_toml(fifo)
+        except ConfigError as exc:
+            seen.append(str(exc))
+
+    thread = threading.Thread(target=work, daemon=True)
+    thread.start()
+    thread.join(timeout=10.0)
+    if thread.is_alive():  # blocked in open(): give it a writer, so that it ends
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        thread.join(timeout=10.0)
+        raise AssertionError("a reader opened the FIFO and blocked")
+    assert str(seen[0]).startswith("unreadable: a FIFO, not a regular file")
+    assert str(seen[1]).startswith(f"unreadable: {200 << 20} bytes, more than the {TOML_MAX}")
+    assert seen[2] == f"{fifo}: cannot read: a FIFO, not a regular file"

@@ -204,6 +204,25 @@ def test_a_density_ode_cannot_hold_is_refused_on_reload_and_the_run_goes_on(gl, 
         app.close()
 
 
+def test_emptying_a_file_says_which_overrides_it_no_longer_sets(gl, tmp_path):
+    """Issue 46 item 8: an emptied materials file reported "reloaded (0 materials)" and
+    silently dropped its overrides. The line now names them; steel is the built-in one again."""
+    user, scene_path = _files(tmp_path)
+    user.write_text(USER.format(density=8000, restitution=0.6))
+    app = _app(gl, user, scene_path)
+    try:
+        assert app.sim.bodies["ball"].spec.material.density == 8000
+        user.write_text("")
+        _, lines = _settle(app, 0.0)
+        assert lines == [
+            f"dentdemo: reloaded {user} (0 materials); it no longer sets steel, putty: "
+            "built-in or earlier files' values, where any"
+        ]
+        assert app.sim.bodies["ball"].spec.material.density == 7850  # assets/materials.toml
+    finally:
+        app.close()
+
+
 def test_two_files_saved_together_are_each_reported(gl, tmp_path):
     user, scene_path = _files(tmp_path)
     second = tmp_path / "more.toml"

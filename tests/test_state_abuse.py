@@ -131,6 +131,12 @@ def _break(state: dict, folder: Path, how: str) -> None:
         del state["maps"]["steel_plate"]
     elif how == "carved_point_nan":
         state["carved_points"] = [[math.nan, 0.0, 0.0]]
+    elif how == "ball_count_5000_digits":  # issue 46: a 27-line ValueError traceback
+        text = json.dumps({**state, "ball_count": 7}).replace(
+            '"ball_count": 7', '"ball_count": ' + "9" * 5000
+        )
+        (folder / "state.json").write_text(text)
+        raise _Written
     elif how == "stale_state_json":  # a complete map whose bytes are not the ones listed
         target = folder / "steel_plate.npy"
         height = np.load(target)
@@ -175,6 +181,7 @@ CASES = [
     ("map_missing_entry", ("[maps]", "missing key 'steel_plate'")),
     ("carved_point_nan", ("[carved_points[0]] key 'point'", "finite")),
     ("stale_state_json", ("[maps.steel_plate] key 'sha256'", "state.json is stale")),
+    ("ball_count_5000_digits", ("not a readable state file (a number of more than 4300 digits)",)),
 ]
 
 
@@ -529,3 +536,64 @@ def test_a_save_killed_before_any_of_its_file_operations_leaves_a_loadable_state
     finally:
         saver.close()
         loader.close()
+
+
+def _map_replaced(saved: Path, tmp_path: Path, how: str) -> Path:
+    """The saved state with steel_plate.npy replaced as `how` says, state.json's hash of it
+    updated (so that only the map's content is at fault)."""
+    import hashlib
+
+    folder = tmp_path / how
+    shutil.copytree(saved, folder)
+    target = folder / "steel_plate.npy"
+    height = np.load(target)
+    if how == "five_metres_deep":  # a 2 cm plate of max_dent_depth 0.01
+        height[10, 10] = -5.0
+    elif how == "far_above":
+        height[3, 4] = 3e30
+    if how in ("five_metres_deep", "far_above"):
+        np.save(target, height)
+    elif how == "trailing_junk":
+        with open(target, "ab") as handle:
+            handle.write(b"junk" * 100)
+    elif how == "huge_trailing_junk":  # 500 MB, sparse: nothing is read of it
+        os.truncate(target, 500 << 20)
+    state = _state(folder)
+    state["maps"]["steel_plate"]["sha256"] = hashlib.sha256(target.read_bytes()).hexdigest()
+    (folder / "state.json").write_text(json.dumps(state))
+    return folder
+
+
+@pytest.mark.parametrize(
+    "how,fragment",
+    [
+        ("five_metres_deep", "heights from -5 to 0 m, outside [-0.01, 0] m"),
+        ("far_above", "to 3e+30 m, outside [-0.01, 0] m"),
+        ("trailing_junk", "400 bytes after the map's data"),
+        ("huge_trailing_junk", "524288000 bytes, more than the"),
+    ],
+)
+def test_a_map_holding_what_no_run_makes_is_refused(gl, saved, tmp_path, how, fragment):
+    """Issue 46 item 6: heights of -5 m in a plate whose max_dent_depth is 0.01, or +3e30 m,
+    loaded (and were saved again), and a map with trailing junk loaded. Each is one line naming
+    the map, nothing changed; and a save refuses such heights too."""
+    from dentdemo.app.state import load_state, save_state
+
+    folder = _map_replaced(saved, tmp_path, how)
+    sim = _sim(gl)
+    try:
+        before = _fingerprint(gl, sim)
+        with pytest.raises(DentdemoError) as info:
+            load_state(sim, folder)
+        message = str(info.value)
+        assert message.startswith(f"{folder / 'steel_plate.npy'}: ") and fragment in message
+        assert "\n" not in message and _fingerprint(gl, sim) == before
+        if how == "five_metres_deep":
+            height = np.zeros(sim.bodies["steel_plate"].maps.size[::-1], np.float32)
+            height[10, 10] = -5.0
+            sim.bodies["steel_plate"].maps.height.write(height.tobytes())
+            with pytest.raises(DentdemoError, match="not saved, a load would refuse it"):
+                save_state(sim, tmp_path / "again")
+            assert not (tmp_path / "again").exists()
+    finally:
+        sim.close()

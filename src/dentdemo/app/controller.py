@@ -25,7 +25,7 @@ from dentdemo.app.video import VideoFile
 from dentdemo.app.watch import FileWatcher
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
-from dentdemo.model.materials import MaterialLibrary, load_materials
+from dentdemo.model.materials import MaterialLibrary, load_materials, reloaded_line
 from dentdemo.model.scene import BodySpec, Scene, load_scene
 from dentdemo.model.shapes import Plate
 from dentdemo.render.camera import OrbitCamera
@@ -170,17 +170,12 @@ class DemoController:
             self.sim.set_materials(materials, str(edited[0]))
         except DentdemoError as exc:
             return [self._report_error(exc)]
-        self.materials = materials
+        before, self.materials = self.materials, materials
         name = self.editor.name if self.editor.name in materials.materials else None
         self.editor.select(materials, name or self.panel.ball_material)
         if self.scene_changed and self.scene_file is not None:
             self._scene_edited(self.scene_file)  # the new scene with the new presets
-        return [
-            self._report(
-                f"dentdemo: reloaded {path} ({materials.defined.get(str(path), 0)} materials)"
-            )
-            for path in edited
-        ]
+        return [self._report(reloaded_line(before, materials, str(path))) for path in edited]
 
     # -- material editor -----------------------------------------------------------------------
     def edit_material(self, key: str, value: object) -> bool:

@@ -86,4 +86,6 @@ class MaterialEditor:
 def with_preset(library: MaterialLibrary, preset: Material) -> MaterialLibrary:
     """`library` with `preset` in place of the one of its name."""
     materials = {**library.materials, preset.name: preset}
-    return MaterialLibrary(library.calibration, materials, library.sources, library.defined)
+    return MaterialLibrary(
+        library.calibration, materials, library.sources, library.defined, library.names_in
+    )

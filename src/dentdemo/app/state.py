@@ -17,6 +17,7 @@ import hashlib
 import io
 import json
 import math
+import sys
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -41,7 +42,7 @@ from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model import shapes
 from dentdemo.model.scene import BOUNDS, SHAPE_KINDS, BodySpec, is_safe_name
 from dentdemo.model.shapes import Plane
-from dentdemo.model.validate import TableReader
+from dentdemo.model.validate import TOML_MAX, TableReader, read_input
 from dentdemo.physics.world import Impact, WorldState
 
 FORMAT = "dentdemo-state"
@@ -63,6 +64,11 @@ COUNT_MAX = 2**53
 SEED_MAX = 2**32 - 1
 #: Most bodies added while running, and queued carves, a state may hold.
 ENTRIES_MAX = 10**6
+#: The largest state.json read, bytes: a queued carve is about 2 kB as JSON and an added body
+#: 0.6 kB, so this holds some 100,000 of them (a saved run holds tens).
+STATE_JSON_MAX = 256 << 20
+#: Room for a .npy file's header beside its data, bytes (np.save writes 128).
+NPY_HEADER_MAX = 4096
 
 
 def _sha256(data: bytes) -> str:
@@ -71,7 +77,7 @@ def _sha256(data: bytes) -> str:
 
 def _scene_hash(sim: Simulation) -> str:
     try:
-        return _sha256(Path(sim.scene.source).read_bytes())
+        return _sha256(read_input(Path(sim.scene.source), TOML_MAX))
     except OSError as exc:
         raise DentdemoError(f"{sim.scene.source}: cannot read the scene ({exc.strerror})") from None
 
@@ -225,6 +231,26 @@ def _checked_height(path: Path, height: NDArray[np.float32]) -> NDArray[np.float
     return height
 
 
+#: Float32 rounding of a bound (max_dent_depth, bump_height) held in a map, relative.
+HEIGHT_TOLERANCE = 1e-6
+
+
+def _within(path: Path, height: NDArray[np.float32], spec: BodySpec) -> NDArray[np.float32]:
+    """A map's heights within what the body can hold: no dent deeper than its material's
+    max_dent_depth (the carve's clamp), nothing above its start surface (0, or its bump map's
+    white: dents only lower a surface), metres."""
+    deepest = spec.material.max_dent_depth
+    top = spec.bump_height if spec.bump_map else 0.0
+    low, high = -deepest * (1.0 + HEIGHT_TOLERANCE), top * (1.0 + HEIGHT_TOLERANCE)
+    if height.size and (height.min() < low or height.max() > high):
+        raise DentdemoError(
+            f"{path}: heights from {height.min():.6g} to {height.max():.6g} m, outside "
+            f"[{-deepest:g}, {top:g}] m (no dent deeper than {spec.material.name}'s "
+            "max_dent_depth, nothing above the start surface)"
+        )
+    return height
+
+
 def _maps_in(directory: Path) -> MapReader:
     """Height maps from the files of `directory`. Where a file's bytes differ from state.json's
     hash, the file is blamed when it is not a complete map of the listed shape (truncated,
@@ -235,15 +261,20 @@ def _maps_in(directory: Path) -> MapReader:
     ) -> NDArray[np.float32]:
         path = directory / file
         try:
-            data = path.read_bytes()
+            data = read_input(path, shape[0] * shape[1] * 4 + NPY_HEADER_MAX)
         except FileNotFoundError:
             raise DentdemoError(f"{path}: missing (state.json lists it)") from None
         except OSError as exc:
             raise DentdemoError(f"{path}: cannot read ({exc.strerror})") from None
+        buffer = io.BytesIO(data)
         try:
-            height = np.load(io.BytesIO(data), allow_pickle=False)
+            height = np.load(buffer, allow_pickle=False)
         except (ValueError, OSError, EOFError):
             height = None
+        if height is not None and buffer.tell() != len(data):
+            raise DentdemoError(
+                f"{path}: {len(data) - buffer.tell()} bytes after the map's data (damaged)"
+            )
         complete = (
             isinstance(height, np.ndarray) and height.dtype == np.float32 and height.shape == shape
         )
@@ -540,7 +571,9 @@ def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> Sa
             raise r.fail("shape", f"does not fit body '{body_id}' ({side}x{side} texels)")
         sha = r.string("sha256")
         r.finish()
-        heights[body_id] = read_map(r, body_id, file, sha, (side, side))
+        heights[body_id] = _within(
+            path.parent / file, read_map(r, body_id, file, sha, (side, side)), specs[body_id]
+        )
     m.finish()
     queue = tuple(
         _request(TableReader(source, f"queue[{i}]", entry), specs, world.order)
@@ -617,11 +650,18 @@ def read_state(sim: Simulation, directory: Path) -> SavedState:
             )
         raise DentdemoError(f"--load-state: '{directory}' is not a folder")
     try:
-        payload = json.loads(path.read_text(encoding="utf-8"))
+        payload = json.loads(read_input(path, STATE_JSON_MAX).decode("utf-8"))
     except FileNotFoundError:
         raise DentdemoError(f"{path}: missing; '{directory}' is not a saved state") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+    except OSError as exc:
+        raise DentdemoError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise DentdemoError(f"{path}: not a readable state file ({type(exc).__name__})") from None
+    except ValueError:  # an integer of more digits than Python converts (4300)
+        raise DentdemoError(
+            f"{path}: not a readable state file (a number of more than "
+            f"{sys.get_int_max_str_digits()} digits)"
+        ) from None
     return _parse(sim, payload, path, _maps_in(directory))
 
 

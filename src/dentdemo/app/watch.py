@@ -1,7 +1,10 @@
 """Files watched while the demo runs: polled (no new dependency, no thread), a change reported
 once its content has settled.
 
-A file's content is hashed at each poll (materials and scene files are a few kB). A new content
+A file's content is hashed at each poll (materials and scene files are a few kB). Only a regular
+file of at most TOML_MAX bytes is read: a FIFO would block the frame loop and /dev/zero never
+ends, so anything else is fingerprinted by what it is (and a larger file by its size and time),
+without opening it; the reload then says what is wrong with it. A new content
 is reported when two polls at least `interval` seconds apart both saw it, so an editor's save in
 several writes is read once, whole. A file that cannot be read (mid-rename, deleted) counts as a
 content of its own: it is reported too, and the reader says what is wrong with it.
@@ -13,16 +16,24 @@ import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from dentdemo.model.validate import TOML_MAX, read_input
+
 #: Seconds between two polls of the files (two polls settle a change: within a second).
 POLL_INTERVAL = 0.2
 
 
 def fingerprint(path: Path) -> str:
-    """The SHA-256 of the file's bytes, or 'unreadable: WHY' when it cannot be read."""
+    """The SHA-256 of the file's bytes, or 'unreadable: WHY' when it cannot be read (a FIFO,
+    a device, a file over TOML_MAX bytes: never opened or read past the bound)."""
     try:
-        return hashlib.sha256(path.read_bytes()).hexdigest()
+        return hashlib.sha256(read_input(path, TOML_MAX)).hexdigest()
     except OSError as exc:
-        return f"unreadable: {exc.strerror or exc}"
+        try:
+            info = path.stat()
+            when = f" {info.st_size} {info.st_mtime_ns}"
+        except OSError:
+            when = ""
+        return f"unreadable: {exc.strerror or exc}{when}"
 
 
 @dataclass

@@ -7,6 +7,7 @@ k in m per N*s (paper eq. 4), Y in N*s (paper eq. 5).
 from __future__ import annotations
 
 import math
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -123,6 +124,8 @@ class MaterialLibrary:
     sources: tuple[str, ...]
     #: How many presets each file in `sources` defines (adds or overrides), by path.
     defined: dict[str, int] = field(default_factory=dict)
+    #: The presets each file in `sources` defines, by path.
+    names_in: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def get(self, name: str, source: str = "materials", where: str = "") -> Material:
         """The preset `name`; an unknown name raises a ConfigError naming `source` and `where`."""
@@ -148,6 +151,7 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
     calibration_raw: tuple[str, dict[str, Any]] | None = None
     files = [builtin_materials_path(), *[Path(p) for p in user_files]]
     defined: dict[str, int] = {}
+    names_in: dict[str, tuple[str, ...]] = {}
     for path in files:
         data = load_toml(path)
         source = str(path)
@@ -162,7 +166,9 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
         if not isinstance(materials, dict):
             raise ConfigError(source, "[materials]", "must be a table of tables")
         defined[source] = len(materials)
+        names_in[source] = tuple(materials)
         for name, table in materials.items():
+            check_preset_name(source, name)
             raw_tables[name] = (source, table)
     calibration = _parse_calibration(*calibration_raw) if calibration_raw else Calibration()
     parsed = {
@@ -171,7 +177,36 @@ def load_materials(user_files: list[Path] | tuple[Path, ...] = ()) -> MaterialLi
     }
     if not parsed:
         raise ConfigError(str(files[-1]), "", "no materials defined")
-    return MaterialLibrary(calibration, parsed, tuple(str(p) for p in files), defined)
+    return MaterialLibrary(calibration, parsed, tuple(str(p) for p in files), defined, names_in)
+
+
+#: The longest preset name, characters (the panel's and the editor's combo boxes show it whole).
+NAME_MAX = 64
+
+
+def check_preset_name(source: str, name: str) -> None:
+    """A preset name a panel shows as it is read: 1 to NAME_MAX characters, none of them a
+    control or formatting character (a right-to-left override would show another name than
+    the file holds), no leading or trailing space."""
+    bad = [c for c in name if unicodedata.category(c) in ("Cc", "Cf", "Cs", "Co", "Zl", "Zp")]
+    if bad or not 0 < len(name) <= NAME_MAX or name != name.strip():
+        why = f"holds {ascii(bad[0])[1:-1]}" if bad else "is empty, too long or space-padded"
+        raise ConfigError(
+            source,
+            f"[materials.{ascii(name)}]",
+            f"a preset name must be 1 to {NAME_MAX} printable characters; this one {why}",
+        )
+
+
+def reloaded_line(before: MaterialLibrary, after: MaterialLibrary, path: str) -> str:
+    """What a hot reload of `path` says: how many presets it defines now and, where it no
+    longer defines some it did, which (they are back to the earlier files' values or gone)."""
+    line = f"dentdemo: reloaded {path} ({after.defined.get(path, 0)} materials)"
+    dropped = [n for n in before.names_in.get(path, ()) if n not in after.names_in.get(path, ())]
+    if dropped:
+        shown = ", ".join(dropped[:4]) + (", ..." if len(dropped) > 4 else "")
+        line += f"; it no longer sets {shown}: built-in or earlier files' values, where any"
+    return line
 
 
 def _parse_calibration(source: str, table: Any) -> Calibration:

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import math
+import os
+import stat
 import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -10,12 +13,56 @@ from typing import Any
 
 from dentdemo.errors import ConfigError
 
+#: The largest TOML file read (scene, materials), bytes: the shipped ones are under 10 kB; 4 MiB
+#: holds tens of thousands of bodies' tables and parses within a second or two.
+TOML_MAX = 4 << 20
+
+#: What each kind of node is called when an input is refused (only regular files are read).
+_NODE_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def not_regular(mode: int) -> str | None:
+    """What a file of `mode` is when it is not a regular file (None when it is)."""
+    if stat.S_ISREG(mode):
+        return None
+    return next((name for test, name in _NODE_KINDS if test(mode)), "not a regular file")
+
+
+def read_input(path: Path, limit: int) -> bytes:
+    """The bytes of the regular file `path` (a link is followed), at most `limit` of them.
+    A device (/dev/zero), FIFO, socket or folder is refused without reading (a FIFO is never
+    opened: it would block), and so is a larger file, each as an OSError whose strerror says
+    why: no input is read without bound or blocks."""
+    try:
+        kind = not_regular(os.stat(path).st_mode)
+    except OSError:
+        kind = None  # missing or unreadable: open() below says which
+    if kind is not None:
+        raise OSError(errno.EINVAL, f"{kind}, not a regular file", str(path))
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY)
+    with os.fdopen(fd, "rb") as handle:
+        info = os.fstat(fd)
+        kind = not_regular(info.st_mode)  # replaced since the stat above
+        if kind is not None:
+            raise OSError(errno.EINVAL, f"{kind}, not a regular file", str(path))
+        data = handle.read(limit + 1)
+    if len(data) > limit or info.st_size > limit:
+        size = max(len(data), info.st_size)
+        raise OSError(errno.EFBIG, f"{size} bytes, more than the {limit} read", str(path))
+    return data
+
 
 def load_toml(path: Path) -> dict[str, Any]:
-    """Read a TOML file; I/O and syntax errors become a ConfigError naming the file."""
+    """Read a TOML file (a regular file of at most TOML_MAX bytes); I/O and syntax errors become
+    a ConfigError naming the file."""
     try:
-        with open(path, "rb") as handle:
-            return tomllib.load(handle)
+        return tomllib.loads(read_input(path, TOML_MAX).decode("utf-8"))
     except FileNotFoundError:
         raise ConfigError(str(path), "", "no such file") from None
     except OSError as exc:
