@@ -435,3 +435,58 @@ def test_window_key_g_and_exit_write_gltf(xvfb, tmp_path):
     assert f"exported {key}" in done.stdout
     reports = validate(key, end)
     assert [r["errors"] for r in reports] == [0, 0]
+
+
+def test_indent_gltf_holds_the_pressed_maps_with_a_mipmapped_sampler(tmp_path):
+    """Issue 41 item 14: `indent` gets --gltf (the target, with its plate sides, and the tool),
+    valid by the Khronos validator; the normal map in it is the one `indent` writes as PNG and
+    the height image decodes to target_height.npy; every texture's sampler is trilinear
+    (LINEAR_MIPMAP_LINEAR, 9987): the normal map had none and aliased at a distance."""
+    out, glb = tmp_path / "press", tmp_path / "press.glb"
+    done = run_dentdemo(
+        *("indent", "--depth", "0.003", "--target-size", "0.2", "--map-size", "128"),
+        *("--out", out, "--gltf", glb),
+    )
+    assert done.returncode == 0, done.stderr
+    assert json.loads((out / "summary.json").read_text())["gltf"] == str(glb)
+    report = validate(glb)[0]
+    assert report["errors"] == 0 and report["warnings"] == 0, report["messages"]
+    read = Read(glb)
+    assert [n.name for n in read.doc.nodes] == ["target", "tool"]
+    target = read.doc.meshes[read.node("target").mesh]
+    assert [len(target.primitives), len(read.doc.meshes[read.node("tool").mesh].primitives)] == [
+        2,
+        1,
+    ]  # the plate's dented top and its sides; the ball
+    material = read.doc.materials[target.primitives[0].material]
+    texture = read.doc.textures[material.normalTexture.index]
+    normal = read.image(texture.source)
+    written = np.asarray(Image.open(out / "target_normal.png"))
+    np.testing.assert_array_equal(normal, written)
+    assert (written[..., 2] < 250).sum() > 20  # it holds the dent (its slopes)
+    extras = material.extras[HEIGHT_KEY]
+    values = read.image(extras["image"]).astype(np.float64)[::-1]
+    metres = extras["offset_m"] + extras["metres_per_unit"] * values
+    height = np.load(out / "target_height.npy")
+    assert np.abs(metres - height).max() <= 0.5001 * extras["metres_per_unit"]
+    assert height.min() < -0.0029  # the 3 mm press
+    for sampler in read.doc.samplers:
+        assert (sampler.minFilter, sampler.magFilter) == (9987, 9729)
+    assert read.doc.samplers[texture.sampler].wrapS == 33071  # the atlas is clamped
+
+
+def test_indent_gltf_is_checked_before_any_work(tmp_path):
+    done = run_dentdemo(
+        "indent",
+        "--depth",
+        "0.003",
+        "--map-size",
+        "8192",
+        "--out",
+        tmp_path / "o",
+        "--gltf",
+        tmp_path / "p.obj",
+    )
+    assert done.returncode == 1
+    assert done.stderr.splitlines() == [f"--gltf: '{tmp_path / 'p.obj'}' must end in .glb or .gltf"]
+    assert list(tmp_path.iterdir()) == []

@@ -268,14 +268,16 @@ class _Builder:
         return len(self.images) - 1
 
     def texture(self, pixels: NDArray[Any], atlas: bool, name: str) -> int:
-        """An image and a texture that samples it: bilinear and clamped for an atlas (the dent
-        maps, as the renderer samples them), else mipmapped and repeating (a mesh's own image,
-        whose coordinates may tile)."""
-        sampler = (
-            {"magFilter": _LINEAR, "minFilter": _LINEAR, "wrapS": _CLAMP_TO_EDGE}
-            if atlas
-            else {"magFilter": _LINEAR, "minFilter": _LINEAR_MIPMAP_LINEAR, "wrapS": _REPEAT}
-        )
+        """An image and a texture that samples it, trilinear (mipmapped: a viewer makes the
+        levels): clamped for an atlas (the dent maps), repeating for a mesh's own image, whose
+        coordinates may tile. Without mipmaps a normal map's one-texel features alias at a
+        distance (three.js and Blender disagreed by 8-14 degrees there); the README says how a
+        normal map's levels should be made."""
+        sampler = {
+            "magFilter": _LINEAR,
+            "minFilter": _LINEAR_MIPMAP_LINEAR,
+            "wrapS": _CLAMP_TO_EDGE if atlas else _REPEAT,
+        }
         sampler["wrapT"] = sampler["wrapS"]
         if sampler not in self.samplers:
             self.samplers.append(sampler)

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from dentdemo import log
-from dentdemo.cli.args import add_quality, command, float_in, int_in, size_wxh
+from dentdemo.cli.args import add_gltf, add_quality, check_gltf, command, float_in, int_in, size_wxh
 from dentdemo.errors import DentdemoError
 from dentdemo.outputs import PNG, check_output_dir, check_output_file, write_json
 
@@ -116,6 +116,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--render-size", type=size_wxh, default="1280x720", metavar="WxH", help="--render pixels"
     )
+    add_gltf(p, "also write the target and the tool after the presses, with their maps")
     add_quality(p)
     p.set_defaults(handler=run)
 
@@ -157,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
         raise DentdemoError(f"{flag}: only with --render PNG")
     out = check_output_dir("--out", args.out)
     render = check_output_file("--render", args.render, PNG) if args.render is not None else None
+    gltf = check_gltf(args.gltf)
     gl = create_headless()
     try:
         setup = make_setup(
@@ -174,11 +176,35 @@ def run(args: argparse.Namespace) -> int:
         summary = write_outputs(gl, setup, out, depth, tool_depth, times)
         if render is not None:
             summary["render"] = _render(gl, setup, render, args)
-            write_json(out / "summary.json", summary)  # again, with what --render drew
+        if gltf is not None:
+            summary["gltf"] = str(_export(gl, setup, gltf))
+        if render is not None or gltf is not None:
+            write_json(out / "summary.json", summary)  # again, with what else was written
     finally:
         gl.release()
     print(json.dumps(summary, indent=2))
     return 0
+
+
+def _export(gl: GLContext, setup: PressSetup, path: Path) -> Path:
+    """`--gltf`: the target (a plate with its undented sides) and the tool at their poses after
+    the presses, grey, each with its normal and height maps."""
+    from dentdemo.gltf import GltfBody, GltfPart, dented_part, write_gltf
+    from dentdemo.mesh.shapes import plate_sides
+    from dentdemo.model.materials import Appearance
+    from dentdemo.model.shapes import Plate
+
+    look = Appearance()
+    bodies = []
+    for name, body, shape in (
+        ("target", setup.target, setup.target_shape),
+        ("tool", setup.tool, setup.tool_shape),
+    ):
+        parts = [dented_part(gl, body.gpu_mesh.mesh, look, body.maps)]
+        if isinstance(shape, Plate):
+            parts.append(GltfPart(plate_sides(shape), look, name="sides"))
+        bodies.append(GltfBody(name, body.model, tuple(parts)))
+    return write_gltf(path, bodies)
 
 
 def _render(gl: GLContext, setup: PressSetup, path: Path, args: argparse.Namespace) -> dict:
