@@ -8,114 +8,31 @@
 // the back of the solid the tool sweeps from first touch. The new height moves the texel's point
 // inwards along its normal until it leaves that solid: the a >= 0 (metres) with
 //     a = (tool depth at the pixel of (point - a normal) - surface depth) / max(cos, MIN_COS)
-// (cos = cos(normal, -forward)), found by false position from the view-line estimate at the
-// point's own pixel (exact, and no search, when the normal is the press direction). h = -a. It does not depend on the old
-// height, so an identical press writes identical values; blending MIN keeps the deeper of old and
+// (cos = cos(normal, -forward)), or where the moved point's view line leaves the tool's outline,
+// found from the view-line estimate at the point's own pixel (exact, and no search, when the
+// normal is the press direction) by a march and false position (exit.glsl). h = -a. It does not
+// depend on the old height, so an identical press writes identical values; blending MIN keeps the deeper of old and
 // new (dents only deepen, presses are idempotent).
+#ifndef EXIT
+#define EXIT 1
+#endif
 #include "camera.glsl"
 #include "chart.glsl"
 #include "texel.glsl"
 #include "swept.glsl"
+#include "exit.glsl"
 
-#ifndef EXIT
-#define EXIT 1
-#endif
 #ifndef CONVEX  // the target hides none of its own surface: pass 2 drew no address map for it
 #define CONVEX 0
 #endif
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
-uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front), LINEAR
 uniform float u_min_height;      // -max_dent_depth of the target, metres
 uniform float u_ceiling;         // no texel of the target is higher than this, metres
 uniform float u_pixel_diagonal;  // a camera pixel's diagonal, metres
 uniform float u_advance;         // how far the tool was advanced along u_forward, metres
 
 out float f_height;
-
-bool tool_sample(ivec2 pixel, out float depth) {
-    depth = NO_TOOL;
-    if (!inside_camera(pixel)) return false;
-    vec2 tool = texelFetch(u_tool_depth, pixel + u_tile, 0).rg;
-    depth = tool.r;
-    return tool.g > 0.5;
-}
-
-// The tool's depth at continuous pixel position p: bilinear, by the sampler, where the four pixels
-// around p all see the tool (their filtered coverage is 1; pixels without the tool hold 0 in both
-// channels, so depth / coverage is the blend of those that have it), else the pixel that holds p.
-// p is rounded to 1/TOOL_SUBPIXELS of a pixel first (the filter's own weight precision): with the
-// atlas a power of two wide and high, the sampler then sees the same offset from the four pixels
-// wherever the camera's tile lies, so a hit gives the same bits in any tile.
-bool tool_depth_at(vec2 p, out float depth) {
-    ivec2 base = ivec2(floor(p));
-    if (all(greaterThanEqual(base, ivec2(0))) && all(lessThan(base + 1, u_resolution))) {
-        vec2 q = floor(p * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS;
-        vec2 at = (q + 0.5 + vec2(u_tile)) / vec2(textureSize(u_tool_depth, 0));
-        vec2 tool = texture(u_tool_depth, at).rg;
-        if (tool.g >= FULL_COVERAGE) {
-            depth = tool.r / tool.g;
-            return true;
-        }
-    }
-    return tool_sample(ivec2(floor(p + 0.5)), depth);
-}
-
-// How far beyond the swept solid's back (metres along the view) the texel's point lies once moved
-// `a` metres inwards along its normal: < 0 inside. False where its pixel is off the tool (out);
-// `seen` false where it leaves the camera (unknown).
-bool beyond(vec3 rel, vec3 n, float depth, float stretch, float a, out float f, out bool seen) {
-    float back;
-    f = 0.0;
-    vec2 p = camera_pixel(rel - n * a);
-    seen = inside_camera(ivec2(floor(p + 0.5)));
-    if (!tool_depth_at(p, back)) return false;
-    f = depth + a / stretch - back;
-    return true;
-}
-
-// The inward distance a (metres) at which the texel's point leaves the swept solid, from the
-// first guess `a0` (the view-line estimate), by false position with the Illinois step between a
-// point inside (lo) and one outside (hi), at most EXIT_STEPS look-ups after the bracket.
-float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float a0) {
-    float lo = 0.0, f_lo = -a0 / stretch;  // the point itself: inside by the tool's depth
-    float hi = a0, f_hi;
-    bool seen;
-    bool on_hi = beyond(rel, n, depth, stretch, hi, f_hi, seen);
-    if (!seen) return a0;  // the camera does not show where it goes: the view-line estimate
-    if (on_hi && abs(f_hi) <= EXIT_SETTLED_METRES) return a0;  // the tool's back is flat here
-    for (int k = 0; k < 4 && on_hi && f_hi < 0.0; ++k) {  // still inside: look further in
-        float f_more;
-        bool more = beyond(rel, n, depth, stretch, 2.0 * hi, f_more, seen);
-        if (!seen) return hi;
-        lo = hi;
-        f_lo = f_hi;
-        hi *= 2.0;
-        f_hi = f_more;
-        on_hi = more;
-    }
-    if (on_hi && f_hi < 0.0) return hi;
-    float a = hi;
-    for (int k = 0; k < EXIT_STEPS; ++k) {
-        float next = on_hi ? (lo * f_hi - hi * f_lo) / (f_hi - f_lo) : 0.5 * (lo + hi);
-        float f;
-        bool on = beyond(rel, n, depth, stretch, next, f, seen);
-        if (!seen) break;
-        a = next;
-        if (on && abs(f) <= EXIT_SETTLED_METRES) break;
-        if (on && f < 0.0) {
-            lo = a;
-            f_lo = f;
-            f_hi *= 0.5;
-        } else {
-            hi = a;
-            f_hi = f;
-            on_hi = on;
-            f_lo *= 0.5;
-        }
-    }
-    return a;
-}
 
 void main() {
 #if RECT
@@ -177,19 +94,22 @@ void main() {
 #endif
     }
     if (!seen) discard;
+    float tool, thickness;
+    if (!tool_at(p, tool, thickness) || !(thickness > 0.0)) discard;  // outside the tool's outline
     // Behind the tool: in front of its nearest face at first touch (pass 3's front, less the
-    // advance), as a ledge overhanging it is; pass 2 drew no such surface.
+    // advance), as a ledge overhanging it is; pass 2 drew no such surface. Where the nearest
+    // pixel does not see the tool (at its outline), the front tool_at extends to the texel.
     ivec2 near = ivec2(floor(p + 0.5));
     vec4 extent = inside_camera(near) ? texelFetch(u_tool_depth, near + u_tile, 0) : vec4(NO_FRONT);
+    if (extent.a >= 0.5 * NO_FRONT && thickness < 0.5 * INSIDE_OUTLINE) extent.a = tool - thickness;
     if (extent.a < 0.5 * NO_FRONT && depth < extent.a - u_advance - tolerance) discard;
-    float tool;
-    if (!tool_depth_at(p, tool)) discard;
     float stretch = 1.0 / max(cos_view, MIN_COS);
     float inward = (tool - depth) * stretch;
     // Along the normal, not the view: the moved point sees another pixel (none when n = -forward).
 #if EXIT  // some normal of the footprint is not the press direction (a variant: a software
           // rasteriser runs an if's body for every fragment, so square-on presses leave it out)
-    if (inward > 0.0 && cos_view < 1.0 - 1e-6) inward = normal_exit(rel, n, depth, stretch, inward);
+    if (inward > 0.0 && cos_view < 1.0 - 1e-6)
+        inward = normal_exit(rel, n, depth, stretch, max(depth - tool, -thickness), inward);
 #endif
     float h = -inward;
     if (!(h < u_ceiling)) discard;  // the tool does not reach this texel

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,9 +16,12 @@ from dentdemo.carve.camera import CollisionCamera, ContactFrame
 from dentdemo.carve.carver import CarveBody, CarveJob, Carver
 from dentdemo.carve.constants import (
     CHART_SELF,
+    EXIT_MARCH,
     EXIT_SETTLED_METRES,
     EXIT_STEPS,
+    FULL_COVERAGE,
     GUTTER_REACH_TEXELS,
+    INSIDE_OUTLINE,
     MIN_COS,
     NO_FRONT,
     NO_SURFACE,
@@ -114,6 +116,7 @@ class CpuReference:
             advance,
             swept,
             job.convex,
+            job.oblique,
         )
         keep = np.isfinite(height)
         return texels.rows[keep], texels.cols[keep], height[keep]
@@ -163,11 +166,13 @@ def gather(
     advance: float = 0.0,
     swept: bool = False,
     convex: bool = False,
+    oblique: bool = True,
 ) -> Array:
     """Pass 4 for every texel of `t`: the new height (metres), NaN where nothing changes.
     `advance`: how far the tool was advanced (metres); `swept`: the texels lie on a built-in
     sphere or capsule's own solid (SWEPT 1); `convex`: the target hides none of itself, and
-    `address` is not read (CONVEX 1)."""
+    `address` is not read (CONVEX 1); `oblique` False: every normal is the press direction (EXIT
+    0: no exit search, the nearest pixel at the tool's outline)."""
     forward = np.asarray(cam.forward, dtype=np.float64)
     cos_view = -(t.normal @ forward)
     face_s = t.face @ forward
@@ -203,25 +208,32 @@ def gather(
         own = np.where(plane, np.minimum(depth, along), depth)
         visible |= ok & (convex | (addr[:, 0] <= NO_SURFACE) | (addr[:, 2] >= own - tolerance))
     seen = front & visible
-    # Behind the tool: in front of its nearest face at first touch (gather.frag).
-    nearest = tool[np.clip(iy, 0, rows - 1), np.clip(ix, 0, cols - 1), 3]
+    tool_depth, thickness, found = _tool_at(tool, px, py, oblique)
+    seen &= found & (thickness > 0.0)  # outside the tool's outline
+    # Behind the tool: in front of its nearest face at first touch, or at the outline (no front
+    # at the nearest pixel) the front _tool_at extends to the texel (gather.frag).
     inside = (ix >= 0) & (iy >= 0) & (ix < cols) & (iy < rows)
-    seen &= ~(inside & (nearest < 0.5 * NO_FRONT) & (depth < nearest - advance - tolerance))
+    nearest = np.where(
+        inside, tool[np.clip(iy, 0, rows - 1), np.clip(ix, 0, cols - 1), 3], NO_FRONT
+    )
+    extended = (nearest >= 0.5 * NO_FRONT) & (thickness < 0.5 * INSIDE_OUTLINE)
+    nearest = np.where(extended, tool_depth - thickness, nearest)
+    seen &= ~((nearest < 0.5 * NO_FRONT) & (depth < nearest - advance - tolerance))
 
     stretch = 1.0 / np.maximum(cos_view, MIN_COS)
-    tool_depth, found = _tool_depth_at(tool, px, py)
-    seen &= found
     with np.errstate(invalid="ignore", over="ignore"):
         inward = (tool_depth - depth) * stretch
-        # Along the normal, not the view: where the point leaves the swept solid (gather.frag).
-        moving = seen & (inward > 0) & (cos_view < 1.0 - 1e-6)
+        # Along the normal, not the view: where the point leaves the swept solid (exit.glsl).
+        moving = seen & (inward > 0) & (cos_view < 1.0 - 1e-6) & oblique
         if moving.any():
             inward[moving] = _normal_exit(
-                lambda r: _tool_depth_at(tool, *pixel(r), with_camera=True),
+                lambda r: _tool_at(tool, *pixel(r)),
+                cam,
                 rel[moving],
                 t.normal[moving],
                 depth[moving],
                 stretch[moving],
+                np.maximum(depth - tool_depth, -thickness)[moving],
                 inward[moving],
             )
         h = -inward
@@ -230,93 +242,156 @@ def gather(
     return np.where(seen, np.maximum(h, -np.minimum(max_dent_depth, t.thickness)), np.nan)
 
 
+def _exit_bound(cam: CollisionCamera, rel: Array, n: Array, depth: Array, stretch: Array) -> Array:
+    """exit.glsl's exit_bound: an inward distance (metres) at which each moved point is out of
+    the swept solid for certain (past the depth range, or a pixel off the camera's rectangle)."""
+    bound = (cam.depth_range[1] - depth) * stretch
+    for axis, half, pixels in zip(
+        (cam.right, cam.up), cam.half_extent, cam.resolution, strict=True
+    ):
+        at, drift = rel @ np.asarray(axis), -(n @ np.asarray(axis))
+        reach = half * (1.0 + 2.0 / pixels)
+        moving = np.abs(drift) > 1e-6
+        with np.errstate(divide="ignore", invalid="ignore"):
+            limit = (np.sign(drift) * reach - at) / np.where(moving, drift, 1.0)
+        bound = np.where(moving, np.minimum(bound, limit), bound)
+    return np.maximum(bound, 0.0)
+
+
 def _normal_exit(
-    tool_at: Callable[[Array], tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]],
+    tool_at: Callable[[Array], tuple[Array, Array, NDArray[np.bool_]]],
+    cam: CollisionCamera,
     rel: Array,
     n: Array,
     depth: Array,
     stretch: Array,
+    f0: Array,
     a0: Array,
 ) -> Array:
-    """gather.frag's normal_exit for many texels at once: false position with the Illinois step
-    between a point inside the swept solid (lo) and one out of it (hi), metres inwards; a texel
-    whose moved point leaves the camera keeps its last estimate."""
+    """exit.glsl's normal_exit for many texels at once: a march from the view-line estimate `a0`
+    brackets the exit between a point inside the swept solid (lo) and one out of it (hi), then
+    false position with the Illinois step narrows the bracket; metres inwards. `f0`: how far
+    inside the solid each point itself lies (metres along the view, < 0)."""
 
-    def beyond(
-        a: Array, which: NDArray[np.int64]
-    ) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
-        back, on, seen = tool_at(rel[which] - n[which] * a[:, None])
-        return depth[which] + a / stretch[which] - back, on, seen
+    def beyond(a: Array, which: NDArray[np.int64]) -> tuple[Array, NDArray[np.bool_]]:
+        back, thickness, on = tool_at(rel[which] - n[which] * a[:, None])
+        return np.maximum(depth[which] + a / stretch[which] - back, -thickness), on
 
+    far = _exit_bound(cam, rel, n, depth, stretch)
     every = np.arange(len(a0))
-    lo, f_lo, hi = np.zeros_like(a0), -a0 / stretch, a0.copy()
-    f_hi, on_hi, seen = beyond(hi, every)
-    a = a0.copy()
-    active = seen & ~(on_hi & (np.abs(f_hi) <= EXIT_SETTLED_METRES))  # flat: the estimate holds
-    for _ in range(4):  # still inside: look further in
+    lo, f_lo, hi = np.zeros_like(a0), f0.copy(), np.minimum(a0, far)
+    f_hi, on_hi = beyond(hi, every)
+    a = hi.copy()
+    active = ~(on_hi & (np.abs(f_hi) <= EXIT_SETTLED_METRES))  # the tool's back is flat here
+    for k in range(EXIT_MARCH):  # still inside: look further
         i = np.flatnonzero(active & on_hi & (f_hi < 0.0))
         if len(i) == 0:
             break
-        f_more, on_more, seen = beyond(2.0 * hi[i], i)
-        a[i] = hi[i]
-        active[i[~seen]] = False
-        i, f_more, on_more = i[seen], f_more[seen], on_more[seen]
-        lo[i], f_lo[i] = hi[i], f_hi[i]
-        hi[i] *= 2.0
-        f_hi[i], on_hi[i] = f_more, on_more
-    a[active] = hi[active]
-    active &= ~(on_hi & (f_hi < 0.0))
+        step = 2.0 * hi[i]
+        rising = f_hi[i] > f_lo[i]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            secant = hi[i] - 2.0 * f_hi[i] * (hi[i] - lo[i]) / (f_hi[i] - f_lo[i])
+        step = np.where(rising, np.clip(secant, step, 4.0 * hi[i]), step)
+        step = far[i] if k == EXIT_MARCH - 1 else np.minimum(step, far[i])
+        lo[i], f_lo[i], hi[i] = hi[i], f_hi[i], step
+        f_hi[i], on_hi[i] = beyond(step, i)
+    stuck = active & on_hi & (f_hi < 0.0)  # inside at the bound (the depth range misses the tool)
+    a[stuck] = hi[stuck]
+    active &= ~stuck
+
+    def root(i: NDArray[np.int64], halve: NDArray[np.bool_]) -> Array:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            secant = (lo[i] * f_hi[i] - hi[i] * f_lo[i]) / (f_hi[i] - f_lo[i])
+        return np.where(on_hi[i] & ~halve, secant, 0.5 * (lo[i] + hi[i]))
+
+    kept = np.zeros(len(a0), dtype=np.int64)  # the end the last step kept: 1 hi, -1 lo
+    width = 2.0 * (hi - lo)  # the bracket's width before the last step
     for _ in range(EXIT_STEPS):
         i = np.flatnonzero(active)
         if len(i) == 0:
             break
-        step = np.where(
-            on_hi[i],
-            (lo[i] * f_hi[i] - hi[i] * f_lo[i]) / np.where(on_hi[i], f_hi[i] - f_lo[i], 1.0),
-            0.5 * (lo[i] + hi[i]),
-        )
-        f, on, seen = beyond(step, i)
-        active[i[~seen]] = False
-        i, step, f, on = i[seen], step[seen], f[seen], on[seen]
-        a[i] = step
+        # After a step that did not halve the bracket, a bisection (exit.glsl).
+        halve = hi[i] - lo[i] > 0.5 * width[i]
+        width[i] = hi[i] - lo[i]
+        step = root(i, halve)
+        f, on = beyond(step, i)
         done = on & (np.abs(f) <= EXIT_SETTLED_METRES)
-        inside = on & (f < 0.0) & ~done
-        out = ~on | ((f >= 0.0) & ~done)
-        lo[i[inside]], f_lo[i[inside]] = step[inside], f[inside]
-        f_hi[i[inside]] *= 0.5
-        hi[i[out]], f_hi[i[out]], on_hi[i[out]] = step[out], f[out], on[out]
-        f_lo[i[out]] *= 0.5
+        a[i[done]] = step[done]
         active[i[done]] = False
+        inside = on & (f < 0.0) & ~done
+        out = ~inside & ~done
+        lo[i[inside]], f_lo[i[inside]] = step[inside], f[inside]
+        twice = i[inside & (kept[i] == 1)]  # Illinois: an end kept twice counts half
+        f_hi[twice] *= 0.5
+        twice = i[out & (kept[i] == -1)]
+        hi[i[out]], f_hi[i[out]], on_hi[i[out]] = step[out], f[out], on[out]
+        f_lo[twice] *= 0.5
+        kept[i[inside]], kept[i[out]] = 1, -1
+    i = np.flatnonzero(active)
+    a[i] = root(i, np.zeros(len(i), dtype=bool))
     return a
 
 
-def _tool_depth_at(tool: np.ndarray, px: Array, py: Array, with_camera: bool = False) -> Any:
-    """Pass 4's tool depth at continuous pixel positions: bilinear where the four pixels around
-    a position all see the tool, else the nearest pixel's; and whether there is one (and, with
-    `with_camera`, whether the position's pixel lies in the camera at all)."""
+def _tool_at(
+    tool: np.ndarray, px: Array, py: Array, outline: bool = True
+) -> tuple[Array, Array, NDArray[np.bool_]]:
+    """exit.glsl's tool_at at continuous pixel positions: the tool's back (view depth, metres),
+    the thickness there (INSIDE_OUTLINE well inside the outline; <= 0 outside it), and whether
+    any of the four pixels around a position sees the tool. `outline` False (EXIT 0): at the
+    outline, the nearest pixel's back."""
     rows, cols = tool.shape[:2]
 
     def sample(x: NDArray[np.int64], y: NDArray[np.int64]) -> tuple[Array, NDArray[np.bool_]]:
-        ok = (x >= 0) & (y >= 0) & (x < cols) & (y < rows)
+        """(back, thickness) at pixels (k, 2), and whether each sees the tool."""
+        inside = (x >= 0) & (y >= 0) & (x < cols) & (y < rows)
         value = tool[np.clip(y, 0, rows - 1), np.clip(x, 0, cols - 1)]
-        return value[:, 0], ok & (value[:, 1] > 0.5)
+        front = value[:, 3] < 0.5 * NO_FRONT
+        thickness = np.where(front, value[:, 0] - value[:, 3], INSIDE_OUTLINE)
+        return np.stack([value[:, 0], thickness], axis=1), inside & (value[:, 1] > 0.5)
 
     bx, by = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
-    # The offset from the four pixels as gather.frag rounds it (TOOL_SUBPIXELS).
+    offsets = [(k & 1, k >> 1) for k in range(4)]
+    corner, seen = zip(*(sample(bx + dx, by + dy) for dx, dy in offsets), strict=True)
+    # The sampler's blend where all four see the tool: the offset as gather.frag rounds it.
     fx = np.floor(px * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS - bx
     fy = np.floor(py * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS - by
-    d00, o00 = sample(bx, by)
-    d10, o10 = sample(bx + 1, by)
-    d01, o01 = sample(bx, by + 1)
-    d11, o11 = sample(bx + 1, by + 1)
-    bilinear = (d00 * (1 - fx) + d10 * fx) * (1 - fy) + (d01 * (1 - fx) + d11 * fx) * fy
-    ix, iy = np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
-    nearest, has_nearest = sample(ix, iy)
-    all4 = o00 & o10 & o01 & o11
-    depth, found = np.where(all4, bilinear, nearest), all4 | has_nearest
-    if not with_camera:
-        return depth, found
-    return depth, found, (ix >= 0) & (iy >= 0) & (ix < cols) & (iy < rows)
+    weights = [(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy]
+    coverage = sum(w * s for w, s in zip(weights, seen, strict=True))
+    in_camera = (bx >= 0) & (by >= 0) & (bx + 1 < cols) & (by + 1 < rows)
+    sampled = in_camera & (coverage >= FULL_COVERAGE)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        blend = sum(w * s * c[:, 0] for w, s, c in zip(weights, seen, corner, strict=True))
+        sampled_back = blend / coverage
+    if not outline:
+        nearest, has = sample(
+            np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
+        )
+        back = np.where(sampled, sampled_back, nearest[:, 0])
+        return back, np.full(len(px), INSIDE_OUTLINE), sampled | has
+    # At the outline: each pixel without the tool from its neighbours (beyond_outline).
+    value = [c.copy() for c in corner]
+    for k, (dx, dy) in enumerate(offsets):
+        total, count = np.zeros((len(px), 2)), np.zeros(len(px))
+        for axis in (1, 2, 3):
+            j = k ^ axis
+            use = ~seen[k] & seen[j] & ((axis != 3) | (count == 0))
+            nx, ny = bx + (j & 1), by + (j >> 1)
+            far, far_seen = sample(2 * nx - bx - dx, 2 * ny - by - dy)
+            near = corner[j]
+            gain = far[:, 1] - near[:, 1]
+            linear = far_seen & (gain > 0) & (near[:, 1] < gain)
+            step = np.stack([near[:, 0], -np.abs(near[:, 1])], axis=1)
+            estimate = np.where(linear[:, None], 2.0 * near - far, step)
+            total += np.where(use[:, None], estimate, 0.0)
+            count += use
+        value[k] = np.where(seen[k][:, None], corner[k], total / np.maximum(count, 1)[:, None])
+    ux, uy = (px - bx)[:, None], (py - by)[:, None]
+    edge = (value[0] * (1 - ux) + value[1] * ux) * (1 - uy) + (
+        value[2] * (1 - ux) + value[3] * ux
+    ) * uy
+    back = np.where(sampled, sampled_back, edge[:, 0])
+    thickness = np.where(sampled, INSIDE_OUTLINE, edge[:, 1])
+    return back, thickness, sampled | np.logical_or.reduce(seen)
 
 
 # -- texel enumeration (what passes 4 and 5 rasterise) --------------------------------------------

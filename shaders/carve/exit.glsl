@@ -1,0 +1,168 @@
+// Pass 4's look-ups of the tool's extent (pass 3) and the search for where a texel's point, moved
+// inwards along its normal, leaves the solid the tool sweeps (docs/carve.md, pass 4 step 6).
+// Needs camera.glsl and EXIT defined (gather.frag). Depths and thicknesses are metres along u_forward; positions are continuous
+// camera pixels (the centre of pixel (i, j) at (i, j)).
+uniform sampler2D u_tool_depth;  // pass 3: (back view depth m, coverage, -, front), LINEAR
+
+// The tool at one camera pixel: (back view depth, thickness back - front), the thickness
+// INSIDE_OUTLINE where no front face was drawn (an open tool); false where the pixel, or the
+// camera there, does not see the tool.
+bool tool_pixel(ivec2 pixel, out vec2 tool) {
+    tool = vec2(NO_TOOL, 0.0);
+    if (!inside_camera(pixel)) return false;
+    vec4 extent = texelFetch(u_tool_depth, pixel + u_tile, 0);
+    tool = vec2(extent.r, extent.a < 0.5 * NO_FRONT ? extent.r - extent.a : INSIDE_OUTLINE);
+    return extent.g > 0.5;
+}
+
+// (back, thickness) at a pixel that does not see the tool, from the pixel `near` next to it that
+// does and the pixel beyond that on the same line (`far`, if it sees the tool). Where the
+// thickness falls linearly to 0 before the pixel (two faces meeting at the silhouette, as a box
+// seen obliquely), both are extended along the line: the outline then lies where the faces meet,
+// to within the float rounding, not to a pixel. Otherwise (a wall seen edge-on, a curved rim) the
+// outline is taken half-way, as the nearest pixel would have it, and the back is near's.
+vec2 beyond_outline(vec2 near, bool far_seen, vec2 far) {
+    float gain = far.y - near.y;  // thickness gained one pixel inwards
+    if (far_seen && gain > 0.0 && near.y < gain) return 2.0 * near - far;
+    return vec2(near.x, -abs(near.y));
+}
+
+// The tool at continuous pixel position p: (back, thickness), false where none of the four pixels
+// around p sees it. Where all four see it, the sampler blends them (LINEAR: their filtered
+// coverage is 1; pixels without the tool hold 0 in both channels, so back / coverage is the blend
+// of those that have it), p rounded to 1/TOOL_SUBPIXELS of a pixel first (the filter's own weight
+// precision): with the atlas a power of two wide and high, the sampler then sees the same offset
+// from the four pixels wherever the camera's tile lies, so a hit gives the same bits in any tile.
+// At the outline (EXIT 1; EXIT 0 takes the nearest pixel) each pixel without the tool takes
+// beyond_outline's values from its neighbours along its row and its column (their mean), or
+// along the diagonal where neither of those sees the tool, and the four are blended by p's own
+// offset (no rounding: fetched, not filtered); a thickness <= 0 is outside the outline.
+bool tool_at(vec2 p, out float back, out float thickness) {
+    ivec2 base = ivec2(floor(p));
+    vec2 q = floor(p * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS;
+    back = NO_TOOL;
+    thickness = INSIDE_OUTLINE;
+    if (all(greaterThanEqual(base, ivec2(0))) && all(lessThan(base + 1, u_resolution))) {
+        vec2 at = (q + 0.5 + vec2(u_tile)) / vec2(textureSize(u_tool_depth, 0));
+        vec2 tool = texture(u_tool_depth, at).rg;
+        if (tool.g >= FULL_COVERAGE) {
+            back = tool.r / tool.g;
+            return true;
+        }
+    }
+#if EXIT
+    vec2 corner[4];
+    bool seen[4];
+    bool any_seen = false;
+    for (int k = 0; k < 4; ++k) {
+        seen[k] = tool_pixel(base + ivec2(k & 1, k >> 1), corner[k]);
+        any_seen = any_seen || seen[k];
+    }
+    if (!any_seen) return false;
+    vec2 value[4];
+    for (int k = 0; k < 4; ++k) {
+        value[k] = corner[k];
+        if (seen[k]) continue;
+        vec2 sum = vec2(0.0);
+        float count = 0.0;
+        for (int axis = 1; axis <= 3; ++axis) {  // its row, its column; then the diagonal
+            int j = k ^ axis;
+            if (!seen[j] || (axis == 3 && count > 0.0)) continue;
+            ivec2 near = base + ivec2(j & 1, j >> 1);
+            vec2 far;
+            bool far_seen = tool_pixel(2 * near - base - ivec2(k & 1, k >> 1), far);
+            sum += beyond_outline(corner[j], far_seen, far);
+            count += 1.0;
+        }
+        value[k] = sum / count;
+    }
+    vec2 f = p - vec2(base);  // the pixels' own values, not the sampler's: no rounding
+    vec2 tool = mix(mix(value[0], value[1], f.x), mix(value[2], value[3], f.x), f.y);
+    back = tool.x;
+    thickness = tool.y;
+    return true;
+#else
+    // Pressed square-on (no texel's normal leaves the view line), the outline falls between
+    // pixels only where a wall of the tool is seen edge-on: the nearest pixel's is as good, and
+    // a software rasteriser, which runs both sides of a branch, is spared the search above.
+    vec2 tool;
+    bool seen = tool_pixel(ivec2(floor(p + 0.5)), tool);
+    back = tool.x;
+    return seen;
+#endif
+}
+
+// How far outside the swept solid (metres along the view; < 0 inside) the texel's point lies once
+// moved `a` metres inwards along its normal: the larger of its depth past the tool's back and
+// how far its view line lies outside the tool's outline (the thickness there, negated). False
+// where no pixel around it sees the tool, off the camera too: out, by an unknown margin.
+bool beyond(vec3 rel, vec3 n, float depth, float stretch, float a, out float f) {
+    float back, thickness;
+    f = 0.0;
+    if (!tool_at(camera_pixel(rel - n * a), back, thickness)) return false;
+    f = max(depth + a / stretch - back, -thickness);
+    return true;
+}
+
+// An inward distance (metres) at which the moved point is out of the swept solid for certain:
+// past the camera's depth range (which holds the whole tool), or a pixel off its rectangle.
+float exit_bound(vec3 rel, vec3 n, float depth, float stretch) {
+    float bound = (u_depth_range.y - depth) * stretch;
+    vec2 at = vec2(dot(rel, u_right), dot(rel, u_up));
+    vec2 drift = -vec2(dot(n, u_right), dot(n, u_up));  // camera metres per metre inwards
+    vec2 reach = u_half_extent * (1.0 + 2.0 / vec2(u_resolution));
+    for (int i = 0; i < 2; ++i) {
+        if (abs(drift[i]) > 1e-6) bound = min(bound, (sign(drift[i]) * reach[i] - at[i]) / drift[i]);
+    }
+    return max(bound, 0.0);
+}
+
+// The inward distance a (metres) at which the texel's point leaves the swept solid. `f0` < 0: how
+// far inside it the point itself lies (beyond's measure); `a0` > 0: the view-line estimate. A march
+// from a0 (doubling, or twice the secant's step where that is longer, up to four times) brackets the exit between
+// a point inside (lo) and one out of the solid (hi) in at most EXIT_MARCH look-ups, the last at
+// exit_bound; false position with the Illinois step then narrows the bracket (bisection while hi
+// has no measure, or after a step that did not halve it), at most EXIT_STEPS look-ups, and the
+// root of the last bracket is the answer.
+float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float f0, float a0) {
+    float far = exit_bound(rel, n, depth, stretch);
+    float lo = 0.0, f_lo = f0;
+    float hi = min(a0, far), f_hi;
+    bool on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
+    if (on_hi && abs(f_hi) <= EXIT_SETTLED_METRES) return hi;  // the tool's back is flat here
+    for (int k = 0; k < EXIT_MARCH && on_hi && f_hi < 0.0; ++k) {  // still inside: look further
+        float next = 2.0 * hi;
+        if (f_hi > f_lo) next = clamp(hi - 2.0 * f_hi * (hi - lo) / (f_hi - f_lo), next, 4.0 * hi);
+        next = k == EXIT_MARCH - 1 ? far : min(next, far);
+        lo = hi;
+        f_lo = f_hi;
+        hi = next;
+        on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
+    }
+    if (on_hi && f_hi < 0.0) return hi;  // inside at the bound (the depth range misses the tool)
+    int kept = 0;  // the end the last step kept: 1 hi, -1 lo (Illinois: halve it if kept twice)
+    float width = 2.0 * (hi - lo);  // the bracket's width before the last step
+    for (int k = 0; k < EXIT_STEPS; ++k) {
+        // A step that did not halve the bracket (a plateau: the point moving along a face of
+        // the tool) is followed by a bisection, so the bracket halves at least every two steps.
+        bool halve = !on_hi || hi - lo > 0.5 * width;
+        width = hi - lo;
+        float a = halve ? 0.5 * (lo + hi) : (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
+        float f;
+        bool on = beyond(rel, n, depth, stretch, a, f);
+        if (on && abs(f) <= EXIT_SETTLED_METRES) return a;
+        if (on && f < 0.0) {
+            lo = a;
+            f_lo = f;
+            if (kept == 1) f_hi *= 0.5;
+            kept = 1;
+        } else {
+            hi = a;
+            f_hi = f;
+            on_hi = on;
+            if (kept == -1) f_lo *= 0.5;
+            kept = -1;
+        }
+    }
+    return on_hi ? (lo * f_hi - hi * f_lo) / (f_hi - f_lo) : 0.5 * (lo + hi);
+}
