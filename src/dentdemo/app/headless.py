@@ -36,6 +36,7 @@ def render_headless(
     progress: bool = False,
     gltf: Path | None = None,
     hit_log: Path | None = None,
+    compact_every: int | None = None,
 ) -> None:
     """Simulate `frames` steps and write the last frame (every frame, `out` % frame, with
     `every_frame`). `load_state` resumes a saved run first (the frames continue it);
@@ -44,7 +45,8 @@ def render_headless(
     `fov` (degrees) replace the scene camera's, each where given. `video` (.mp4 or .gif) gets
     every frame as well, at the scene's frame rate. `gltf` (.glb or .gltf) gets every body as
     it is after the last frame. `hit_log` (.ddhl or .jsonl) gets every carve as a record
-    (app/hitlog.py), written with the maps."""
+    (app/hitlog.py), written with the maps. `compact_every` (hits) makes `save_state` compact
+    (app/compact.py)."""
     from dentdemo.app.controller import DemoController  # loads ODE
     from dentdemo.app.loop import FrameLoop, ImageBackend, Tee, VideoBackend
 
@@ -66,6 +68,10 @@ def render_headless(
             from dentdemo.app.state import load_state as resume
 
             resume(app.sim, load_state)
+        if compact_every is not None:
+            from dentdemo.app.state import enable_compact_saves
+
+            enable_compact_saves(app.sim, compact_every)
         recorder = None
         if hit_log is not None:
             from dentdemo.app.hitlog import HitRecorder

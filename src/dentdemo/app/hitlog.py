@@ -18,6 +18,7 @@ from dentdemo.errors import DentdemoError
 from dentdemo.model import hitlog, shapes
 from dentdemo.model.hitlog import Body, Event, Hit, HitLogError, Record
 from dentdemo.model.scene import BodySpec
+from dentdemo.model.validate import read_input
 
 if TYPE_CHECKING:
     from dentdemo.app.simulation import CarveRequest, SimBody, Simulation
@@ -85,10 +86,39 @@ class HitRecorder:
             self.sink(record)
 
     def attach(self, sim: Simulation) -> None:
-        """Start recording `sim` (the bodies it has now are its scene's, or were added)."""
-        sim.recorder = self
-        scene_ids = {spec.id for spec in sim.scene.bodies}
-        self._added = {body_id for body_id in sim.bodies if body_id not in scene_ids}
+        """Start recording `sim` as it is now: a replay starts from the same bodies (the
+        scene's, with those added since and their maps as they are)."""
+        sim.recorders.append(self)
+        self._added = set()
+
+    def restart(self, sim: Simulation) -> None:
+        """Start a new log from `sim` as it is now (a compact save's checkpoint); the frames
+        count on."""
+        self.records = []
+        self.hits = 0
+        self._index.clear()
+        self._added = set()
+        self._batch = 0
+
+    def resume(self, records: Sequence[Record]) -> None:
+        """Go on from `records` (a loaded log, replayed): the same declarations and numbering."""
+        self.records = list(records)
+        self.hits = sum(isinstance(r, Hit) for r in records)
+        self._index.clear()
+        self._added = set()
+        self._batch = 0
+        for record in records:
+            self._last = max(self._last, record.frame)
+            if isinstance(record, Body):
+                self._index[record.id] = record.index
+                self._next = max(self._next, record.index + 1)
+                if record.spec.get("added"):
+                    self._added.add(record.id)
+            elif isinstance(record, Hit):
+                self._batch = record.batch + 1
+            elif record.kind == "reset":
+                self._index.clear()
+                self._added.clear()
 
     def added(self, body_id: str) -> None:
         """`body_id` was added while running (the scene file lacks it)."""
@@ -134,7 +164,7 @@ class HitRecorder:
 
     def stop(self, sim: Simulation, why: str) -> None:
         """Record nothing more of `sim`, with one warning saying from which frame and why."""
-        sim.recorder = None
+        sim.recorders.remove(self)
         log.warn(f"dentdemo: the hit log stops at frame {self.frame(sim)}: {why}")
 
     def event(self, sim: Simulation, kind: str, body_id: str = "", value: float = 0.0) -> None:
@@ -184,12 +214,8 @@ def write_log(path: Path, records: Iterable[Record]) -> Path:
 def read_log(flag: str, path: Path) -> tuple[list[Record], list[str]]:
     """A log file's records, checked whole, and where each is in the file; one DentdemoError
     line for any fault."""
-    if not path.is_file():
-        raise DentdemoError(f"{flag}: '{path}' is not a file")
-    if path.stat().st_size > MAX_LOG_BYTES:
-        raise DentdemoError(f"{flag}: '{path}' is larger than {MAX_LOG_BYTES} bytes")
     try:
-        data = path.read_bytes()
+        data = read_input(path, MAX_LOG_BYTES)  # a regular file, bounded: never blocks
         return hitlog.parse_placed(data, f"{flag}: '{path}'")
     except OSError as exc:
         raise DentdemoError(f"{flag}: cannot read '{path}': {exc.strerror or exc}") from None
@@ -224,10 +250,12 @@ class _Bodies:
     maps are another size), or an added body whose id is taken or whose spec does not build, is
     one line naming the record."""
 
-    def __init__(self, sim: Simulation) -> None:
+    def __init__(self, sim: Simulation, present: set[str] | None = None) -> None:
         self.sim = sim
         self.scene = {spec.id for spec in sim.scene.bodies}
-        self.live = set(self.scene)
+        self.live = set(sim.bodies)  # what the log starts from
+        #: Bodies the log adds that are there already (a compact state's, added in order).
+        self.present = present or set()
 
     def see(self, record: Record, at: str) -> None:
         if isinstance(record, Event) and record.kind == "reset":
@@ -235,12 +263,14 @@ class _Bodies:
         if not isinstance(record, Body):
             return
         if record.spec.get("added"):
+            if record.id in self.present:
+                return
             if record.id in self.live:
                 raise DentdemoError(f"{at}: added body '{record.id}' is already in the scene")
             _added_spec(self.sim, record, at)
             self.live.add(record.id)
             return
-        if record.id not in self.scene:
+        if record.id not in self.live:
             raise DentdemoError(f"{at}: body '{record.id}' is not in the scene")
         body = self.sim.bodies.get(record.id)
         if body is not None and body.maps.size[0] != record.spec.get("map_size"):
@@ -257,10 +287,10 @@ class Replayer:
     added are added, and a reset, undo, repair or new depth bound is done where the log has it.
     Each record is checked before anything of it is done."""
 
-    def __init__(self, sim: Simulation) -> None:
+    def __init__(self, sim: Simulation, present: set[str] | None = None) -> None:
         self.sim = sim
         self.carved = 0
-        self._bodies = _Bodies(sim)
+        self._bodies = _Bodies(sim, present)
         self._ids: dict[int, str] = {}
         self._pending: list[Press] = []
         self._batch = -1
@@ -276,7 +306,7 @@ class Replayer:
         self._bodies.see(record, at)
         self._flush()
         if isinstance(record, Body):
-            if record.spec.get("added"):
+            if record.spec.get("added") and record.id not in self._bodies.present:
                 sim.add_body(_added_spec(sim, record, at))
             self._ids[record.index] = record.id
             sim.bodies[record.id].maps.max_dent_depth = float(record.spec["max_dent_depth"])
@@ -301,15 +331,20 @@ class Replayer:
             self._pending = []
 
 
-def replay(sim: Simulation, records: Sequence[Record], names: Sequence[str] | None = None) -> int:
+def replay(
+    sim: Simulation,
+    records: Sequence[Record],
+    names: Sequence[str] | None = None,
+    present: set[str] | None = None,
+) -> int:
     """Carve a whole log's `records` (checked: model.hitlog.check) onto `sim`'s bodies; its
-    body records are checked against the scene first, so a bad one carves nothing. Returns the
-    hits carved."""
+    body records are checked against the scene first, so a bad one carves nothing. Bodies the
+    log adds whose ids are in `present` are taken as they are. Returns the hits carved."""
     where = list(names) if names is not None else [f"record {n + 1}" for n in range(len(records))]
-    bodies = _Bodies(sim)
+    bodies = _Bodies(sim, present)
     for at, record in zip(where, records, strict=True):
         bodies.see(record, at)
-    replayer = Replayer(sim)
+    replayer = Replayer(sim, present)
     for at, record in zip(where, records, strict=True):
         replayer.apply(record, at)
     return replayer.finish()

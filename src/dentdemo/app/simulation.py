@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dentdemo import outputs
+from dentdemo.app.compact import CompactSaves
 from dentdemo.app.hitlog import HitRecorder
 from dentdemo.app.reshape import DentProxy, proxy_for, shape_field
 from dentdemo.app.shared import Shared
@@ -138,8 +139,11 @@ class Simulation:
         #: they were before it ((inward, shaped, rebuilt_at), or None: the batch made it).
         self._proxy_history: deque[dict[str, tuple | None]] = deque(maxlen=UNDO_DEPTH)
         self.bodies: dict[str, SimBody] = {}
-        #: Set by HitRecorder.attach: every carve, and what else changes the maps, as records.
-        self.recorder: HitRecorder | None = None
+        #: Added by HitRecorder.attach (a --hit-log, compact saves): every carve, and what else
+        #: changes the maps, as records.
+        self.recorders: list[HitRecorder] = []
+        #: Set by app/state.py's enable_compact_saves: saves hold a checkpoint and a hit log.
+        self.compact_saves: CompactSaves | None = None
         self.world: PhysicsWorld = build_world(scene)
         for spec in scene.bodies:
             self._add_render_body(spec)
@@ -200,8 +204,8 @@ class Simulation:
         """Add a body while running: to the physics world and, with its maps, to the GPU."""
         self.world.add_body(spec)
         self._add_render_body(spec)
-        if self.recorder is not None:
-            self.recorder.added(spec.id)
+        for recorder in self.recorders:
+            recorder.added(spec.id)
 
     def remove_body(self, body_id: str) -> None:
         self.world.remove_body(body_id)
@@ -230,8 +234,9 @@ class Simulation:
             if spec is body.spec:
                 continue
             body.spec = spec
-            if body.maps.max_dent_depth != spec.material.max_dent_depth and self.recorder:
-                self.recorder.event(self, "depth_bound", body_id, spec.material.max_dent_depth)
+            if body.maps.max_dent_depth != spec.material.max_dent_depth:
+                for recorder in self.recorders:
+                    recorder.event(self, "depth_bound", body_id, spec.material.max_dent_depth)
             body.maps.max_dent_depth = spec.material.max_dent_depth
             if body_id in self.world.bodies:
                 self.world.set_spec(spec)
@@ -315,8 +320,8 @@ class Simulation:
 
             # One batch: every hit reads the heights from before it (docs/carve.md, "Batches").
             self.carver.carve_many([press for _, press in presses], meanwhile=follow)
-            if self.recorder is not None:
-                self.recorder.batch(self, [request for request, _ in presses])
+            for recorder in self.recorders:
+                recorder.batch(self, [request for request, _ in presses])
             self.carved_points.extend(request.impact.point for request, _ in presses)
             self.last_hit = presses[-1][0]
             if len(self.undo_log):
@@ -424,8 +429,8 @@ class Simulation:
         none is left (see carve/undo.py for the bounds)."""
         if not self.undo_log.undo():
             return False
-        if self.recorder is not None:
-            self.recorder.event(self, "undo")
+        for recorder in self.recorders:
+            recorder.event(self, "undo")
         before = self._proxy_history.pop() if self._proxy_history else {}
         for body_id, saved in before.items():
             if body_id not in self.bodies:
@@ -449,8 +454,8 @@ class Simulation:
         """Give a body back its pristine maps (height 0, or its scene bump map, and their
         normals); its part of the undo history is dropped."""
         body = self.bodies[body_id]
-        if self.recorder is not None:
-            self.recorder.event(self, "repair", body_id)
+        for recorder in self.recorders:
+            recorder.event(self, "repair", body_id)
         start = None
         if body.spec.dentable and body.spec.bump_map:
             size = body.maps.size[0]
@@ -479,8 +484,8 @@ class Simulation:
         self.ball_count = 0
         self._time_debt = 0.0
         self.world = build_world(self.scene)
-        if self.recorder is not None:
-            self.recorder.event(self, "reset")
+        for recorder in self.recorders:
+            recorder.event(self, "reset")
         for spec in self.scene.bodies:
             self._add_render_body(spec)
 

@@ -28,6 +28,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo import outputs
+from dentdemo.app.compact import (
+    CHECKPOINT_FILE,
+    EVERY_HITS,
+    LOG_FILE,
+    Checkpoint,
+    CompactSaves,
+    normal_file,
+)
+from dentdemo.app.hitlog import MAX_LOG_BYTES, replay
 from dentdemo.app.reshape import DentProxy, proxy_for
 from dentdemo.app.simulation import (
     CARVED_POINTS_KEPT,
@@ -39,7 +48,8 @@ from dentdemo.app.simulation import (
 from dentdemo.carve.surface import rebuild_all_normals
 from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.mesh.shapes import shape_mesh
-from dentdemo.model import shapes
+from dentdemo.model import hitlog, shapes
+from dentdemo.model.hitlog import Record
 from dentdemo.model.scene import BOUNDS, SHAPE_KINDS, BodySpec, is_safe_name
 from dentdemo.model.shapes import Plane
 from dentdemo.model.validate import TOML_MAX, TableReader, read_input
@@ -117,15 +127,18 @@ def check_state_dir(flag: str, directory: Path) -> Path:
     return outputs.check_replaceable_dir(flag, directory, is_state_file, "a saved state")
 
 
-def _snapshot(sim: Simulation) -> tuple[dict[str, Any], dict[str, bytes], dict[str, np.ndarray]]:
-    """state.json's payload, the .npy files' bytes and the heights they hold, as they are now."""
+def _snapshot(
+    sim: Simulation, with_maps: bool = True
+) -> tuple[dict[str, Any], dict[str, bytes], dict[str, np.ndarray]]:
+    """state.json's payload, the .npy files' bytes and the heights they hold, as they are now
+    (`with_maps` False: none listed nor read back, for a compact save)."""
     scene_ids = {spec.id for spec in sim.scene.bodies}
     world = sim.world.snapshot()
     maps: dict[str, dict[str, Any]] = {}
     files: dict[str, bytes] = {}
     heights: dict[str, np.ndarray] = {}
     for body_id, body in sorted(sim.bodies.items()):
-        if not body.spec.dentable:
+        if not body.spec.dentable or not with_maps:
             continue
         height = np.ascontiguousarray(sim.gl.read(body.maps.height)[:, :, 0], dtype=np.float32)
         data = outputs.npy_bytes(height)  # written as is, and hashed
@@ -174,10 +187,20 @@ def save_state(sim: Simulation, directory: Path, flag: str = "--save-state") -> 
     """Write the simulation's state as the folder `directory`: the height maps and state.json
     go into a new folder beside it, which then replaces the previous one as a whole
     (outputs.write_folder), so a kill at any moment leaves the previous state or the new one.
-    The state is first checked as a load checks it: what a load would refuse (NaN above all)
-    is never saved. Returns the path of state.json."""
+    With compact saves on (`enable_compact_saves`), the maps are a checkpoint and the hit log
+    since it instead (app/compact.py). The state is first checked as a load checks it: what a
+    load would refuse (NaN above all) is never saved. Returns the path of state.json."""
     check_state_dir(flag, directory)
-    payload, files, heights = _snapshot(sim)
+    saves = sim.compact_saves
+    if saves is not None and saves.due():
+        saves.checkpoint_now(sim, checkpoint_of(sim))
+    payload, files, heights = _snapshot(sim, with_maps=saves is None)
+    if saves is not None:
+        keys, extra = saves.contents()
+        payload.update(keys)
+        files.update(extra)
+        if saves.checkpoint is not None:
+            heights = dict(saves.checkpoint.heights)
     text = json.dumps(payload, indent=2) + "\n"
 
     def in_memory(
@@ -186,11 +209,32 @@ def save_state(sim: Simulation, directory: Path, flag: str = "--save-state") -> 
         return _checked_height(directory / file, heights[body_id])
 
     try:
-        _parse(sim, json.loads(text), directory / STATE_FILE, in_memory)
+        _parse(sim, json.loads(text), directory / STATE_FILE, in_memory, files.__getitem__)
     except DentdemoError as exc:
         raise DentdemoError(f"{flag}: not saved, a load would refuse it: {exc}") from None
     files[STATE_FILE] = text.encode("utf-8")
     return outputs.write_folder(directory, files, flag) / STATE_FILE
+
+
+def checkpoint_of(sim: Simulation) -> Checkpoint:
+    """`sim` as a full state in memory, with its normal maps (all read back from the GPU)."""
+    payload, files, heights = _snapshot(sim)
+    normals = {body_id: sim.gl.read(sim.bodies[body_id].maps.normal) for body_id in heights}
+    for body_id, normal in normals.items():
+        files[normal_file(body_id)] = outputs.npy_bytes(normal)
+    return Checkpoint(payload, files, heights, normals)
+
+
+def enable_compact_saves(sim: Simulation, every_hits: int = EVERY_HITS) -> CompactSaves:
+    """Keep `sim`'s saves compact from now on (app/compact.py). A run that has carved nothing
+    needs no checkpoint (the scene as loaded is one); otherwise its maps are read back as the
+    first."""
+    saves = CompactSaves(every_hits)
+    sim.compact_saves = saves
+    saves.recorder.attach(sim)
+    if sim.stats.hits > 0:
+        saves.checkpoint_now(sim, checkpoint_of(sim))
+    return saves
 
 
 # -- loading -----------------------------------------------------------------------------------
@@ -219,6 +263,12 @@ class SavedState:
     carved_points: tuple[NDArray[np.float64], ...]
     stats: SimStats
     ball_count: int
+    #: A compact state: the hit log since its checkpoint (records, and where each is in the
+    #: file), and the checkpoint (None: the scene as loaded), read and checked in full too.
+    log: tuple[Record, ...] | None = None
+    log_places: tuple[str, ...] = ()
+    checkpoint: SavedState | None = None
+    checkpoint_kept: Checkpoint | None = None
 
 
 #: Reads one height map: (its entry in `maps`, body id, file name, sha256, shape (v, u)).
@@ -528,7 +578,13 @@ def _stats(r: TableReader) -> SimStats:
     return SimStats(**values)
 
 
-def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> SavedState:
+def _parse(
+    sim: Simulation,
+    payload: Any,
+    path: Path,
+    read_map: MapReader,
+    read_file: Callable[[str], bytes] | None = None,
+) -> SavedState:
     """Every key and value of state.json (at `path`) checked against the simulation's scene,
     each height map read by `read_map`; the first fault is a ConfigError naming state.json, the
     key and the value (or a DentdemoError naming the map file)."""
@@ -555,8 +611,13 @@ def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> Sa
         specs[spec.id] = spec
         added.append(spec)
     world = _world(sim, top.table_at("world"), specs)
+    compact = _compact(sim, top, path, read_map, read_file) if top.has("hit_log") else None
     m = top.table_at("maps")
     dentable = [body_id for body_id in world.order if specs[body_id].dentable]
+    if compact is not None:
+        dentable = []  # the log rebuilds the maps
+        for body_id in m.table:
+            raise m.fail(body_id, "a compact state lists no maps (its hit log rebuilds them)")
     for body_id in m.table:
         if body_id not in dentable:
             raise m.fail(body_id, "is not a dentable body of world.order")
@@ -595,8 +656,67 @@ def _parse(sim: Simulation, payload: Any, path: Path, read_map: MapReader) -> Sa
         stats=_stats(top.table_at("stats")),
         ball_count=top.integer("ball_count", min_value=0, max_value=COUNT_MAX),
     )
+    if compact is not None:
+        state = dataclasses.replace(state, **compact)
     top.finish()
     return state
+
+
+def _compact(
+    sim: Simulation,
+    top: TableReader,
+    path: Path,
+    read_map: MapReader,
+    read_file: Callable[[str], bytes] | None,
+) -> dict[str, Any]:
+    """A compact state's `hit_log` and `checkpoint`: each file read, its sha256 checked, the log
+    parsed and checked whole (model/hitlog.py), the checkpoint parsed as a full state."""
+    folder = path.parent
+
+    def read(table: TableReader, name: str) -> bytes:
+        if table.string("file") != name:
+            raise table.fail("file", f"must be '{name}'")
+        data = read_raw(folder, name)
+        if table.string("sha256") != _sha256(data):
+            raise table.fail("sha256", f"differs from {name}'s bytes")
+        return data
+
+    def read_raw(folder: Path, name: str) -> bytes:
+        if read_file is None:
+            raise DentdemoError(f"{folder / name}: a compact state needs its folder")
+        try:
+            return read_file(name)
+        except (OSError, KeyError):
+            raise DentdemoError(f"{folder / name}: missing or unreadable") from None
+
+    h = top.table_at("hit_log")
+    data = read(h, LOG_FILE)
+    hits = h.integer("hits", min_value=0, max_value=COUNT_MAX)
+    h.finish()
+    try:
+        records, places = hitlog.parse_placed(data, str(folder / LOG_FILE))
+    except hitlog.HitLogError as exc:
+        raise DentdemoError(str(exc)) from None
+    if hits != sum(isinstance(r, hitlog.Hit) for r in records):
+        raise h.fail("hits", f"is {hits}; {LOG_FILE} holds another number")
+    found: dict[str, Any] = {"log": tuple(records), "log_places": tuple(places)}
+    if top.has("checkpoint") and top.raw("checkpoint") is not None:
+        c = top.table_at("checkpoint")
+        text = read(c, CHECKPOINT_FILE)
+        try:
+            inner = json.loads(text.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+            raise DentdemoError(f"{folder / CHECKPOINT_FILE}: not JSON ({exc})") from None
+        if isinstance(inner, dict) and "hit_log" in inner:
+            raise c.fail("file", "a checkpoint is a full state, not a compact one")
+        checkpoint = _parse(sim, inner, folder / CHECKPOINT_FILE, read_map)
+        normals = _normals(c.table_at("normals"), checkpoint, lambda n: read_raw(folder, n))
+        c.finish()
+        files = {f"{b}.npy": outputs.npy_bytes(v) for b, v in checkpoint.heights.items()}
+        files.update({normal_file(b): outputs.npy_bytes(v) for b, v in normals.items()})
+        found["checkpoint"] = checkpoint
+        found["checkpoint_kept"] = Checkpoint(inner, files, dict(checkpoint.heights), normals)
+    return found
 
 
 def _shapes(
@@ -662,25 +782,118 @@ def read_state(sim: Simulation, directory: Path) -> SavedState:
             f"{path}: not a readable state file (a number of more than "
             f"{sys.get_int_max_str_digits()} digits)"
         ) from None
-    return _parse(sim, payload, path, _maps_in(directory))
+    return _parse(sim, payload, path, _maps_in(directory), _compact_files(directory))
+
+
+def _compact_files(directory: Path) -> Callable[[str], bytes]:
+    """A compact state's other files, each a regular file read up to its bound."""
+    from dentdemo.carve.surface import MAX_MAP_SIZE
+
+    def read(name: str) -> bytes:
+        if name == LOG_FILE:
+            limit = MAX_LOG_BYTES
+        elif name.endswith(".json"):
+            limit = STATE_JSON_MAX
+        else:  # an RGBA8 normal map
+            limit = MAX_MAP_SIZE * MAX_MAP_SIZE * 4 + NPY_HEADER_MAX
+        return read_input(directory / name, limit)
+
+    return read
 
 
 def apply_state(sim: Simulation, state: SavedState) -> None:
     """Set a checked state: the simulation is reset to its scene first, so loading in a running
-    demo equals loading in a new process. A hit log being written stops here (its records carve
-    from the scene as loaded; the state's maps are not carves)."""
-    if sim.recorder is not None:
-        sim.recorder.stop(sim, "a saved state was loaded")
+    demo equals loading in a new process. A compact state's checkpoint is set first and its hit
+    log carved onto it. A hit log being written (--hit-log) stops here (its records carve from
+    the scene as loaded; the state's maps are not carves); compact saves go on from the state."""
+    saves = sim.compact_saves
+    for recorder in list(sim.recorders):
+        if saves is None or recorder is not saves.recorder:
+            recorder.stop(sim, "a saved state was loaded")
+    if saves is not None:
+        sim.recorders.remove(saves.recorder)  # the load's own carves are not recorded
+    if state.log is None:
+        _apply_full(sim, state)
+    else:
+        _apply_compact(sim, state)
+    if saves is not None:
+        sim.recorders.append(saves.recorder)
+        if state.log is None:
+            saves.checkpoint_now(sim, checkpoint_of(sim))
+        else:
+            saves.resume(sim, list(state.log), state.checkpoint_kept)
+
+
+def _normals(
+    t: TableReader, checkpoint: SavedState, read: Callable[[str], bytes]
+) -> dict[str, NDArray[np.uint8]]:
+    """A checkpoint's normal maps: one per height map, RGBA8 of its side, hashes checked."""
+    out = {}
+    for body_id, height in checkpoint.heights.items():
+        r = t.table_at(body_id)
+        name = normal_file(body_id)
+        if r.string("file") != name:
+            raise r.fail("file", f"must be '{name}'")
+        data = read(name)
+        if r.string("sha256") != _sha256(data):
+            raise r.fail("sha256", f"differs from {name}'s bytes")
+        r.finish()
+        try:
+            normal = np.load(io.BytesIO(data), allow_pickle=False)
+        except (ValueError, OSError, EOFError):
+            normal = None
+        shape = (*height.shape, 4)
+        if not isinstance(normal, np.ndarray) or normal.dtype != np.uint8 or normal.shape != shape:
+            raise DentdemoError(f"{name}: not an RGBA8 map of {shape[1]}x{shape[0]} texels")
+        out[body_id] = normal
+    t.finish()
+    return out
+
+
+def _apply_full(sim: Simulation, state: SavedState) -> None:
     sim.reset()
     for body_id in state.removed:
         sim.remove_body(body_id)  # lost during the saved run (non-finite)
     for spec in state.added:
         sim.add_body(spec)
-    sim.world.restore(state.world)
     for body_id, height in state.heights.items():
         body = sim.bodies[body_id]
         body.maps.height.write(height.tobytes())
         rebuild_all_normals(sim.gl, body.gpu_mesh, body.maps)
+    _apply_rest(sim, state)
+
+
+def _apply_compact(sim: Simulation, state: SavedState) -> None:
+    """The checkpoint (or the scene), then the log carved onto it. The bodies added while
+    running are added in their order once the log's last reset is carved (the world's order is
+    part of the physics), each dented one then found by its id, and the bodies the run lost are
+    removed after the log (their dents are part of it)."""
+    assert state.log is not None
+    if state.checkpoint is not None:
+        _apply_full(sim, state.checkpoint)
+        assert state.checkpoint_kept is not None
+        for body_id, normal in state.checkpoint_kept.normals.items():
+            sim.bodies[body_id].maps.normal.write(normal.tobytes())  # as the carve left them
+    else:
+        sim.reset()
+    records, places = list(state.log), list(state.log_places)
+    cut = max(
+        (i + 1 for i, r in enumerate(records) if getattr(r, "kind", "") == "reset"), default=0
+    )
+    replay(sim, records[:cut], places[:cut])
+    for spec in state.added:
+        if spec.id not in sim.bodies:
+            sim.add_body(spec)
+    replay(sim, records[cut:], places[cut:], present={spec.id for spec in state.added})
+    sim.undo_log.clear()  # as after a full load: the undo history is not saved
+    for body_id in state.removed:
+        if body_id in sim.bodies:
+            sim.remove_body(body_id)
+    _apply_rest(sim, state)
+
+
+def _apply_rest(sim: Simulation, state: SavedState) -> None:
+    sim.world.restore(state.world)
     for body_id, proxy in state.shapes.items():
         sim.proxies[body_id] = proxy
         if proxy.rebuilt_at > 0.0:

@@ -14,6 +14,7 @@ from dentdemo.cli.args import (
     check_gltf,
     command,
     float_in,
+    int_in,
     size_wxh,
 )
 from dentdemo.errors import DentdemoError, GLUnavailableError
@@ -56,6 +57,16 @@ def register(sub: argparse._SubParsersAction) -> None:
         p,
         "where the G key and the panel's export button write every body (default dentdemo.glb); "
         "with --exit-after, also written when the run ends",
+    )
+    p.add_argument(
+        "--compact-state",
+        type=int_in(0, 10**9),
+        nargs="?",
+        const=1000,
+        default=None,
+        metavar="HITS",
+        help="F5 saves a checkpoint and the hit log since it instead of every map (a new"
+        " checkpoint once the log holds HITS hits, 1000 if not given)",
     )
     p.add_argument(
         "--hit-log",
@@ -103,6 +114,10 @@ def run(args: argparse.Namespace) -> int:
     if gltf is not None:
         window.app.gltf_path = gltf
     window.app.selected = args.select
+    if args.compact_state is not None:
+        from dentdemo.app.state import enable_compact_saves
+
+        enable_compact_saves(window.app.sim, args.compact_state)
     window.app.watch([Path(p) for p in args.materials], path)
     if args.materials:  # files the user named (the scene is watched too, silently)
         watched = [*args.materials, path]

@@ -58,6 +58,16 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="after the last frame, save every body's maps and the physics state to DIR",
     )
     p.add_argument(
+        "--compact-state",
+        type=int_in(0, 10**9),
+        nargs="?",
+        const=1000,
+        default=None,
+        metavar="HITS",
+        help="--save-state writes a checkpoint and the hit log since it instead of every map"
+        " (a new checkpoint once the log holds HITS hits, 1000 if not given)",
+    )
+    p.add_argument(
         "--load-state",
         metavar="DIR",
         help="resume a state saved from the same scene; --frames then continues it",
@@ -161,6 +171,8 @@ def run(args: argparse.Namespace) -> int:
             )
         hit_log = check_log_path("--hit-log", Path(args.hit_log))
     save_state = _folder("--save-state", args.save_state)
+    if args.compact_state is not None and save_state is None:
+        raise DentdemoError("--compact-state: it shapes --save-state, which is not given")
     if save_state is not None:
         from dentdemo.app.state import check_state_dir
 
@@ -187,6 +199,7 @@ def run(args: argparse.Namespace) -> int:
         progress=True,
         gltf=gltf,
         hit_log=hit_log,
+        compact_every=args.compact_state,
     )
     if every:
         last = args.frames - 1
