@@ -200,6 +200,25 @@ def test_a_bad_compact_state_is_one_line_and_changes_nothing(gl, tmp_path, how):
     sim.close()
 
 
+def test_compact_saves_replace_each_other_in_one_folder(gl, tmp_path):
+    """The demo's F5 saves again and again to one folder, with a checkpoint made between."""
+    from dentdemo.app.state import enable_compact_saves, load_state, save_state
+
+    sim = _sim(gl)
+    enable_compact_saves(sim, 20)
+    for _ in range(3):
+        _steps(sim, 40)
+        save_state(sim, tmp_path / "S")
+    sim.apply_queued()
+    want = _maps(sim)
+    sim.close()
+    other = _sim(gl)
+    load_state(other, tmp_path / "S")
+    other.apply_queued()
+    assert _maps(other) == want
+    other.close()
+
+
 def test_compact_state_needs_save_state(tmp_path):
     result = dentdemo("render", "--frames", 1, "--out", tmp_path / "r.png", "--compact-state")
     assert result.returncode != 0 and "--compact-state" in result.stderr

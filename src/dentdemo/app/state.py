@@ -117,8 +117,9 @@ def _added_body(spec: BodySpec) -> dict[str, Any]:
 
 # -- saving ------------------------------------------------------------------------------------
 def is_state_file(name: str) -> bool:
-    """The files a state folder holds: state.json and the height maps."""
-    return name == STATE_FILE or name.endswith(".npy")
+    """The files a state folder holds: state.json and the height maps, and a compact state's
+    hit log and checkpoint (whose normal maps are .npy files too)."""
+    return name in (STATE_FILE, LOG_FILE, CHECKPOINT_FILE) or name.endswith(".npy")
 
 
 def check_state_dir(flag: str, directory: Path) -> Path:
