@@ -4,10 +4,10 @@ A call is one method call or property write on a moderngl object (context, progr
 vertex array, framebuffer, texture, buffer, sampler, query): each reaches the driver once or a
 few times (a vertex array's render binds its program and array, then draws); plus each raw GL
 entry point called through `gl.library.gl_library()` (state moderngl does not set, glFlush).
-A uniform write (`gl.shaders`' writers call moderngl's C-level write, past the classes) counts
-once, through the writers made while the count is open. The wrappers go on the classes and on
-`gl.shaders._writer` while `counting` is open; writers made before it call past them, so the
-context whose calls are counted is made inside it."""
+A uniform write counts once (`gl.shaders`' writers call `Uniform.write`). The wrappers go on
+the classes while `counting` is open; objects that kept a bound method from before (a
+program's uniform writers) call past them, so the context whose calls are counted is made
+inside it."""
 
 from __future__ import annotations
 
@@ -18,7 +18,6 @@ from typing import Any
 
 import moderngl
 
-from dentdemo.gl import shaders
 from dentdemo.gl.library import gl_library
 
 _CLASSES = (
@@ -82,12 +81,9 @@ def counting() -> Iterator[GLCalls]:
             return ctypes.CDLL.__getattribute__(self, name)
 
     library.__class__ = Counted
-    writer = shaders._writer
-    shaders._writer = lambda member: _counted(calls, writer(member))
     try:
         yield calls
     finally:
-        shaders._writer = writer
         library.__class__ = plain
         for owner, name, member in reversed(patched):
             setattr(owner, name, member)
