@@ -63,6 +63,8 @@ def test_the_editor_shows_the_validators_ranges():
         "max_dent_depth_m": "(0, 1]",
         "k_m_per_Ns": "[0, 1000]",
         "rolling_friction": "[0, 1]",
+        "wear_coefficient": "[0, 1]",
+        "hardness_Pa": "[1000, 3e+11]",
         "metalness": "[0, 1]",
         "roughness": "[0.02, 1]",
     }

@@ -35,7 +35,9 @@ def editor_window(imgui: Any, app: DemoController) -> None:
         if spec.optional:
             changed, checked = imgui.checkbox(f"set {spec.key}", spec.key in draft)
             if changed:
-                app.edit_material(spec.key, editor.preset.k if checked else None)
+                app.edit_material(
+                    spec.key, getattr(editor.preset, spec.attribute) if checked else None
+                )
             if spec.key not in draft:
                 continue
         value = float(draft.get(spec.key, spec.default or 0.0))

@@ -73,7 +73,7 @@ def shape_from_args(kind: str, size: list[float], role: str) -> Shape:
     raise AssertionError((kind, s))
 
 
-def _aim_point(shape: Shape, offset: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+def aim_point(shape: Shape, offset: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     """The point above (x, z) = offset on the target's upper side, and its normal there."""
     x, z = offset
     match shape:
@@ -105,7 +105,7 @@ def make_setup(
     tool_mesh = shape_mesh(tool_shape, Tessellation.press(detail))
     target_gpu = GpuMesh(gl, target_mesh)
     target = CarveBody(target_gpu, create_maps(gl, target_gpu, map_size, max_dent_depth))
-    point, normal = _aim_point(target_shape, offset)
+    point, normal = aim_point(target_shape, offset)
     tool_model = np.eye(4)
     tool_model[:3, 3] = point - support(tool_shape, -normal)
     tool_gpu = GpuMesh(gl, tool_mesh)

@@ -11,14 +11,34 @@ from types import ModuleType
 
 from dentdemo import interrupt, log
 from dentdemo.cli import args as cli_args
-from dentdemo.cli import bench, demo, indent, info, materials, render, replay, simulate
+from dentdemo.cli import (
+    bench,
+    demo,
+    indent,
+    info,
+    materials,
+    render,
+    replay,
+    scratch,
+    simulate,
+)
 from dentdemo.errors import DentdemoError, ShaderError
 from dentdemo.version import VERSION
 
 Handler = Callable[[argparse.Namespace], int]
 
 #: Subcommands in the order `dentdemo --help` lists them; each has register(sub) and run(args).
-COMMANDS: list[ModuleType] = [demo, render, replay, simulate, indent, bench, materials, info]
+COMMANDS: list[ModuleType] = [
+    demo,
+    render,
+    replay,
+    simulate,
+    indent,
+    scratch,
+    bench,
+    materials,
+    info,
+]
 
 EXAMPLES = """examples:
   dentdemo demo                                  the interactive sandbox

@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(payload, indent=2))
         return 0
     header = f"{'name':<11} {'E (GPa)':>8} {'P (GPa)':>8} {'rho':>6} {'eps':>5} {'mu':>4} "
-    header += f"{'C_rr':>6} "
+    header += f"{'C_rr':>6} {'K wear':>7} {'H (GPa)':>7} "
     header += f"{'max (mm)':>8} {'k (m/Ns)':>10} {'Y (Ns)':>7}"
     print(header)
     for name in library.names():
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         print(
             f"{name:<11} {m.youngs_modulus / 1e9:8.3g} {m.plastic_modulus / 1e9:8.3g} "
             f"{m.density:6.0f} {m.restitution:5.2f} {m.friction:4.2f} "
-            f"{m.rolling_friction:6.4g} "
+            f"{m.rolling_friction:6.4g} {m.wear_coefficient:7.2g} {m.hardness / 1e9:7.3g} "
             f"{m.max_dent_depth * 1e3:8.1f} "
             f"{m.k:10.3g}{tag}{m.Y:7.3g}"
         )

@@ -80,6 +80,12 @@ class Material:
     #: Rolling resistance coefficient C_rr (resisting force / normal force, dimensionless); the
     #: contact's torque limit is C_rr * N * the rolling radius (physics/world.py). 0: none.
     rolling_friction: float = 0.0
+    #: Archard's wear coefficient K (dimensionless): V = K F s / H. 0: the body does not wear.
+    wear_coefficient: float = 0.0
+    #: Indentation hardness H, Pa (Archard's law divides by it).
+    hardness: float = 1e9
+    #: True when the preset set hardness_Pa; otherwise it is TABOR_FACTOR * yield_stress.
+    hardness_explicit: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -91,6 +97,9 @@ class Material:
             "restitution": self.restitution,
             "friction": self.friction,
             "rolling_friction": self.rolling_friction,
+            "wear_coefficient": self.wear_coefficient,
+            "hardness_Pa": self.hardness,
+            "hardness_explicit": self.hardness_explicit,
             "max_dent_depth_m": self.max_dent_depth,
             "k_m_per_Ns": self.k,
             "k_explicit": self.k_explicit,
@@ -240,6 +249,9 @@ def material_table(material: Material) -> dict[str, Any]:
     }
     if material.k_explicit:
         table["k_m_per_Ns"] = material.k
+    table["wear_coefficient"] = material.wear_coefficient
+    if material.hardness_explicit:
+        table["hardness_Pa"] = material.hardness
     table.update(
         source=material.source,
         base_colour=list(look.base_colour),
@@ -269,6 +281,7 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
             f"gives k = k_per_compliance (1/P - 1/E) = {k:.3g} m/(N*s), outside k_m_per_Ns's "
             f"{k_range.explained()}",
         )
+    hardness, hardness_explicit = _hardness(reader, number["yield_stress_Pa"])
     source_text = reader.string("source", "")
     default = Appearance()
     colour = reader.vec3("base_colour", default.base_colour)
@@ -296,4 +309,27 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
         source=source_text,
         appearance=appearance,
         rolling_friction=number["rolling_friction"],
+        wear_coefficient=number["wear_coefficient"],
+        hardness=hardness,
+        hardness_explicit=hardness_explicit,
     )
+
+
+#: Tabor's constraint factor: a metal's indentation hardness is about three times its yield
+#: stress (Tabor, The Hardness of Metals, 1951), the hardness of a preset that sets none.
+TABOR_FACTOR = 3.0
+
+
+def _hardness(reader: TableReader, yield_stress: float) -> tuple[float, bool]:
+    """hardness_Pa as the preset sets it, or TABOR_FACTOR times its yield stress; whether set."""
+    spec = NUMBER_KEYS["hardness_Pa"]
+    if reader.has(spec.key):
+        return spec.read(reader), True
+    derived = TABOR_FACTOR * yield_stress
+    if not (spec.low or 0.0) <= derived <= (spec.high or math.inf):
+        raise reader.fail(
+            "yield_stress_Pa",
+            f"gives hardness_Pa = 3 x yield = {derived:.3g} Pa, outside hardness_Pa's "
+            f"{spec.explained()}; set hardness_Pa",
+        )
+    return derived, False

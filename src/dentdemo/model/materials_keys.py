@@ -26,6 +26,8 @@ class NumberKey:
     default: float | None = None
     #: An absent key is derived from others (k from E and P) rather than defaulted.
     optional: bool = False
+    #: An optional key's Material field (where its derived value is, for the editor).
+    attribute: str = ""
     #: A bound that depends on another key, said in words ("< E": below youngs_modulus_Pa).
     also: str = ""
     #: Why the range is what it is (shown with a refusal).
@@ -135,6 +137,7 @@ MATERIAL_NUMBERS: tuple[NumberKey, ...] = (
         # At 1e3, 1 mN*s above Y already dents 1 m, past any max_dent_depth_m: a larger k
         # changes no dent and only overflows k * j.
         why="clay's 3e-3 is the softest preset; 1e3 dents 1 m per mN*s",
+        attribute="k",
     ),
     # Rolling resistance coefficient C_rr (force / normal force); absent: none.
     NumberKey(
@@ -144,6 +147,26 @@ MATERIAL_NUMBERS: tuple[NumberKey, ...] = (
         high=1.0,
         default=0.0,
         why="steel on steel 0.001 to soft tyres on sand ~0.3",
+    ),
+    # Archard's wear coefficient K (V = K F s / H); absent: the body does not wear.
+    NumberKey(
+        "wear_coefficient",
+        "1",
+        low=0.0,
+        high=1.0,
+        default=0.0,
+        why="lubricated pairs ~1e-9 to severe abrasion ~1e-1; K = 1 wears F s / H, all contact",
+    ),
+    # Indentation hardness H (Vickers or Brinell, kgf/mm^2 times 9.80665e6); absent: three
+    # times the yield stress (Tabor's H ~ 3 Y for metals).
+    NumberKey(
+        "hardness_Pa",
+        "Pa",
+        low=1e3,
+        high=3e11,
+        optional=True,
+        attribute="hardness",
+        why="three times yield_stress_Pa's range (diamond is ~1e11 Pa); V = K F s / H grows as 1/H",
     ),
     NumberKey("metalness", "1", low=0.0, high=1.0, default=0.0, why="0 dielectric, 1 metal"),
     NumberKey(

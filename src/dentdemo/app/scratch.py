@@ -1,0 +1,352 @@
+"""A deterministic scratch with no physics (the pin-on-disc test of the wear model): a tool dragged
+at constant load along a straight path on a target's upper face, the groove Archard's law wears
+carved as presses of the tool swept along the path, and the groove measured against the law.
+
+The carve moves a tool only along its view direction (docs/carve.md, "What a press means"), so a
+tool dragged along the surface is carved as square-on presses (along the face's inward normal)
+of the *swept* tool: a sphere swept along a segment is a capsule (a built-in solid with its own
+analytic surface), a box swept along its own z axis a longer box. Each segment's swept tool is
+posed touching the surface and pressed by the groove's depth d, which Archard's volume fixes:
+the groove's cross-section A(d) times the distance slid is V = K F s / H. The swept solid also
+holds the tool's own print at either end (for a sphere two half caps, one cap's volume
+pi d^2 (3R - d) / 3; for a box its flat print, x z d), which the prediction counts.
+
+A long path is cut into equal segments, each short enough that its footprint fits one collision
+camera at the target's texel pitch (`Carver.max_resolution` pixels): a camera's pixels otherwise
+grow past a micron groove's width. Collinear capsules (and boxes) that share their end points
+union to the one long solid, and the carve keeps the deeper height (MIN) where they overlap, so
+the segments leave the same groove as one press of the whole path would."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo import outputs
+from dentdemo.app.press import aim_point
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import CarveBody, Carver, Press
+from dentdemo.carve.surface import create_maps
+from dentdemo.errors import DentdemoError
+from dentdemo.gl.context import GLContext
+from dentdemo.gpu.mesh import GpuMesh
+from dentdemo.mesh.shapes import Tessellation, shape_mesh
+from dentdemo.model import wear
+from dentdemo.model.materials import Material
+from dentdemo.model.shapes import Box, Capsule, Plate, Shape, Sphere, as_dict, support
+
+#: Texels across the groove's half-width the automatic map size aims at: sampled at texel
+#: centres, a groove of n texels a half-width integrates to within -1/(4 n^2) .. +1/(8 n^2) of
+#: its volume (the worst phase of the texel lattice across it), 1.6 % at 4.
+TEXELS_PER_HALF_WIDTH = 4
+#: Largest and smallest automatic target map side, texels.
+MAX_AUTO_MAP = 8192
+MIN_AUTO_MAP = 256
+#: Pixels a segment's footprint may take along the path, of the camera's `max_resolution`: the
+#: rest is the camera's margin (two texels and a pixel each side) with room.
+SEGMENT_PIXELS = 0.9
+#: A height below this counts as grooved, metres (float32 holds a pristine 0 exactly).
+GROOVED = 0.0
+
+
+@dataclass(frozen=True)
+class Drag:
+    """What the tool does: pressed with `load_n` newtons while it travels `distance_m` along
+    `direction` (a unit vector in the target's face) from `start` (world, on the face), at
+    `speed_m_s`; `slip` of the way it slides (1: dragged, 0: rolls without slip)."""
+
+    load_n: float
+    distance_m: float
+    speed_m_s: float
+    slip: float = 1.0
+
+    @property
+    def slide_m(self) -> float:
+        return self.slip * self.distance_m
+
+
+@dataclass(frozen=True)
+class Groove:
+    """The groove Archard's law asks for along a straight path (metres, m^2, m^3)."""
+
+    archard_volume: float
+    area: float
+    depth: float
+    #: Half its width at the surface.
+    half_width: float
+    #: The tool's print at the two ends, which the swept tool adds to A(d) * distance.
+    ends_volume: float
+
+    def predicted_volume(self, distance: float) -> float:
+        return self.area * distance + self.ends_volume
+
+
+def groove_for(tool: Shape, target: Material, drag: Drag) -> Groove:
+    """The groove `tool` wears into a `target` body: V = K F s / H with the target's own K and H,
+    spread over the path so that A(d) * distance = V."""
+    volume = wear.archard_volume(
+        target.wear_coefficient, drag.load_n, drag.slide_m, target.hardness
+    )
+    area = volume / drag.distance_m
+    match tool:
+        case Sphere(radius=r):
+            depth = wear.sphere_groove_depth(r, area)
+            return Groove(
+                volume, area, depth, wear.segment_half_width(r, depth), wear.cap_volume(r, depth)
+            )
+        case Box(size=(x, _, z)):
+            depth = wear.box_groove_depth(x, area)
+            return Groove(volume, area, depth, x / 2, x * z * depth)
+    raise DentdemoError(f"--tool: a scratch takes a sphere or a box, got {type(tool).__name__}")
+
+
+def swept(tool: Shape, length: float) -> Shape:
+    """`tool` swept `length` metres along its local z: a sphere a capsule, a box a longer box."""
+    match tool:
+        case Sphere(radius=r):
+            return Capsule(r, length)
+        case Box(size=(x, y, z)):
+            return Box((x, y, z + length))
+    raise DentdemoError(f"--tool: a scratch takes a sphere or a box, got {type(tool).__name__}")
+
+
+@dataclass
+class ScratchSetup:
+    """The target at the origin with its maps, the path on its upper face, the groove and the
+    swept tool's segments (each a CarveBody posed touching the face, sharing one mesh and map)."""
+
+    target: CarveBody
+    target_shape: Shape
+    tool_shape: Shape
+    start: NDArray[np.float64]
+    direction: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    groove: Groove
+    drag: Drag
+    segments: list[CarveBody]
+    segment_length: float
+
+    def release(self) -> None:
+        """The GL objects of both bodies (the segments share one mesh and one map)."""
+        bodies = [self.target, *self.segments[:1]]
+        for body in bodies:
+            body.maps.release()
+            body.gpu_mesh.release()
+
+
+def auto_map_size(side: float, groove: Groove) -> int:
+    """A target map side whose texels put TEXELS_PER_HALF_WIDTH across the groove's half-width,
+    within [MIN_AUTO_MAP, MAX_AUTO_MAP]."""
+    if groove.half_width <= 0:
+        return MIN_AUTO_MAP
+    wanted = math.ceil(side * TEXELS_PER_HALF_WIDTH / groove.half_width)
+    return int(min(max(wanted, MIN_AUTO_MAP), MAX_AUTO_MAP))
+
+
+def plate_for(drag: Drag, groove: Groove) -> Plate:
+    """A plate that holds the whole groove with a margin of its own width each side."""
+    return Plate(drag.distance_m + 6.0 * max(groove.half_width, 1e-4))
+
+
+def _pose(rotation: NDArray[np.float64], centre: NDArray[np.float64]) -> NDArray[np.float64]:
+    model = np.eye(4)
+    model[:3, :3] = rotation
+    model[:3, 3] = centre
+    return model
+
+
+def make_scratch(
+    gl: GLContext,
+    target_shape: Shape,
+    tool: Shape,
+    material: Material,
+    drag: Drag,
+    map_size: int,
+    heading: float = 0.0,
+    max_resolution: int = 1023,
+) -> ScratchSetup:
+    """The target, and the path centred on the middle of its upper face along `heading` (radians
+    from +x towards +z), cut into segments that each fit one collision camera."""
+    groove = groove_for(tool, material, drag)
+    target_gpu = GpuMesh(gl, shape_mesh(target_shape, Tessellation.press(2)))
+    maps = create_maps(gl, target_gpu, map_size, material.max_dent_depth)
+    target = CarveBody(target_gpu, maps)
+    middle, normal = aim_point(target_shape, (0.0, 0.0))
+    direction = np.array([math.cos(heading), 0.0, math.sin(heading)])
+    start = middle - direction * drag.distance_m / 2
+    texel = min(maps.texel_metres)
+    extent = 2.0 * groove.half_width + (tool.size[2] if isinstance(tool, Box) else 0.0)
+    longest = SEGMENT_PIXELS * max_resolution * texel - extent
+    if longest <= 0:
+        raise DentdemoError(
+            f"--map-size: the tool's print ({extent:g} m) does not fit one carve camera at "
+            f"{texel:g} m a texel; use a coarser map"
+        )
+    count = max(1, math.ceil(drag.distance_m / longest))
+    length = drag.distance_m / count
+    solid = swept(tool, length)
+    tool_mesh = shape_mesh(solid, Tessellation.press(2))
+    tool_gpu = GpuMesh(gl, tool_mesh)
+    # The tool's texels no coarser than the target's: the camera's pixels grow to one of them.
+    su, sv = tool_mesh.uv_scale()
+    tool_side = min(max(16, math.ceil(max(su, sv) / texel)), 8192)
+    tool_maps = create_maps(gl, tool_gpu, tool_side, 0.0)
+    # Tool frame: local z along the path, local y along the face's normal (out of the target).
+    across = np.cross(normal, direction)
+    rotation = np.column_stack([across, normal, direction])
+    lift = rotation @ support(solid, np.array([0.0, -1.0, 0.0]))
+    segments = []
+    for i in range(count):
+        mid = start + direction * (i + 0.5) * length
+        segments.append(CarveBody(tool_gpu, tool_maps, _pose(rotation, mid - lift)))
+    return ScratchSetup(
+        target,
+        target_shape,
+        tool,
+        start,
+        direction,
+        normal,
+        groove,
+        drag,
+        segments,
+        length,
+    )
+
+
+def carve_groove(gl: GLContext, setup: ScratchSetup, carver: Carver | None = None) -> int:
+    """Press every segment's swept tool by the groove's depth, in one batch (with `carver`, else
+    one of its own); how many carved. A groove of depth 0 (nothing slid, or a material that does
+    not wear) carves nothing."""
+    if setup.groove.depth <= 0:
+        return 0
+    press_in = -setup.normal
+    presses = []
+    for body in setup.segments:
+        point = body.centre() + body.model[:3, :3] @ support(
+            swept(setup.tool_shape, setup.segment_length), np.array([0.0, -1.0, 0.0])
+        )
+        contact = ContactFrame(point, press_in)
+        presses.append(Press(setup.target, body, contact, setup.groove.depth, 0.0))
+    own = carver or Carver(gl)
+    try:
+        jobs = own.carve_many(presses)
+    finally:
+        if carver is None:
+            own.release()
+    if not jobs:
+        raise DentdemoError("the scratch's path misses the target: nothing was carved")
+    return len(jobs)
+
+
+def measure(height: NDArray[np.float32], setup: ScratchSetup) -> dict:
+    """The groove as the map holds it: its volume (-height summed over the texels times a
+    texel's area) and, over the path's straight part (its ends' prints left out), its depth
+    along the path and its cross-section against the tool's circle (or flat) at depth d."""
+    tu, tv = setup.target.maps.texel_metres
+    measured = float(-height.astype(np.float64).sum() * tu * tv)
+    groove, drag = setup.groove, setup.drag
+    predicted = groove.predicted_volume(drag.distance_m)
+    result: dict = {
+        "archard_volume_m3": groove.archard_volume,
+        "ends_volume_m3": groove.ends_volume,
+        "predicted_volume_m3": predicted,
+        "measured_volume_m3": measured,
+        "ratio": measured / predicted if predicted > 0 else (0.0 if measured == 0 else math.inf),
+        "depth_m": groove.depth,
+        "half_width_m": groove.half_width,
+        "cross_section_m2": groove.area,
+        "grooved_texels": int((height < GROOVED).sum()),
+    }
+    if groove.depth <= 0:
+        return result
+    along, off = _path_coordinates(height.shape, setup)
+    reach = groove.half_width + 2.0 * max(tu, tv)
+    straight = (along > reach + _end_reach(setup)) & (
+        along < drag.distance_m - reach - _end_reach(setup)
+    )
+    near = straight & (np.abs(off) <= reach)
+    if near.any():
+        expected = _profile(setup.tool_shape, groove.depth, off[near])
+        error = -height[near].astype(np.float64) - expected
+        result["cross_section_rms_error_m"] = float(np.sqrt(np.mean(error**2)))
+        result["cross_section_max_error_m"] = float(np.abs(error).max())
+        # The deepest texel of each slice a millimetre long: its depth along the path.
+        slices = np.floor(along[near] / 1e-3).astype(np.int64)
+        deepest = np.full(slices.max() + 1, 0.0)
+        np.maximum.at(deepest, slices, -height[near])
+        deepest = deepest[np.unique(slices)]
+        result["depth_along_path_m"] = [float(deepest.min()), float(deepest.max())]
+    result["grooved_off_path_texels"] = int(((height < GROOVED) & (np.abs(off) > reach)).sum())
+    return result
+
+
+def _end_reach(setup: ScratchSetup) -> float:
+    """How far past the path's ends the tool's print reaches along it, m."""
+    tool = setup.tool_shape
+    return tool.size[2] / 2 if isinstance(tool, Box) else setup.groove.half_width
+
+
+def _profile(tool: Shape, depth: float, offset: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The groove's depth `offset` metres across from its axis (>= 0)."""
+    if not isinstance(tool, Sphere):
+        return np.where(np.abs(offset) < tool.size[0] / 2, depth, 0.0)  # type: ignore[union-attr]
+    r = tool.radius
+    reach = np.sqrt(np.maximum(r * r - offset * offset, 0.0))
+    return np.maximum(depth - (r - reach), 0.0)
+
+
+def _path_coordinates(
+    shape: tuple[int, ...], setup: ScratchSetup
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each texel centre's distance along the path from its start and across it, m (a plate's
+    or box top's texels: x = (u - 1/2) side, z = (1/2 - v) side, row 0 at v = 0)."""
+    rows, cols = shape
+    sx, sz = _face_size(setup.target_shape)
+    x = ((np.arange(cols) + 0.5) / cols - 0.5)[None, :] * sx
+    z = (0.5 - (np.arange(rows) + 0.5) / rows)[:, None] * sz
+    d = setup.direction
+    dx, dz = x - setup.start[0], z - setup.start[2]
+    along = dx * d[0] + dz * d[2]
+    off = dx * -d[2] + dz * d[0]
+    return along, off
+
+
+def _face_size(shape: Shape) -> tuple[float, float]:
+    match shape:
+        case Plate(side=side):
+            return side, side
+    raise DentdemoError(f"--target: a scratch is measured on a plate, got {type(shape).__name__}")
+
+
+def write_scratch(gl: GLContext, setup: ScratchSetup, out: Path, carved: int) -> dict:
+    """The target's maps, a 16-bit height PNG scaled to the groove's depth and summary.json."""
+    height = gl.read(setup.target.maps.height)[:, :, 0]
+    if not np.isfinite(height).all():
+        raise DentdemoError("the carve left a height that is not a finite number")
+    outputs.write_npy(out / "target_height.npy", height)
+    outputs.write_normal_png(out / "target_normal.png", gl.read(setup.target.maps.normal))
+    scale = setup.groove.depth if setup.groove.depth > 0 else setup.target.maps.max_dent_depth
+    outputs.write_height_png(out / "target_height.png", height, scale)
+    drag = setup.drag
+    summary = {
+        "target": as_dict(setup.target_shape),
+        "tool": as_dict(setup.tool_shape),
+        "load_N": drag.load_n,
+        "distance_m": drag.distance_m,
+        "slid_m": drag.slide_m,
+        "speed_m_s": drag.speed_m_s,
+        "duration_s": drag.distance_m / drag.speed_m_s,
+        "map_size": list(setup.target.maps.size),
+        "texel_m": list(setup.target.maps.texel_metres),
+        "segments": len(setup.segments),
+        "segment_length_m": setup.segment_length,
+        "carved_directions": carved,
+        "renderer": gl.renderer,
+        **measure(height, setup),
+    }
+    outputs.write_json(out / "summary.json", summary)
+    return summary

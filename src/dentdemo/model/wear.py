@@ -1,0 +1,84 @@
+"""Archard's wear law and the grooves it cuts: the volume a sliding contact wears, and the depth of
+the groove a tool of known cross-section cuts to remove it. Pure arithmetic, SI units (metres,
+newtons, pascals), no GL."""
+
+from __future__ import annotations
+
+import math
+
+#: Bisection steps for a groove's depth: the bracket [0, R] halves each step, so 60 steps put
+#: the depth within R * 2^-60 (below float64's resolution of it) of the root.
+DEPTH_STEPS = 60
+
+
+def archard_volume(
+    wear_coefficient: float, load_n: float, slide_m: float, hardness_pa: float
+) -> float:
+    """V = K F s / H, m^3: the volume worn from a body of hardness H (Pa) and dimensionless wear
+    coefficient K pressed with normal force F (N) while sliding s (m). Rolling without slip
+    slides nothing (s = 0) and wears nothing."""
+    if hardness_pa <= 0 or not math.isfinite(hardness_pa):
+        raise ValueError(f"hardness must be a positive number of pascals, got {hardness_pa}")
+    return max(wear_coefficient, 0.0) * max(load_n, 0.0) * max(slide_m, 0.0) / hardness_pa
+
+
+def segment_area(radius: float, depth: float) -> float:
+    """Cross-section of the groove a sphere (or a capsule's cylinder) pressed `depth` into a flat
+    surface leaves, m^2: up to d = R the circular segment R^2 acos((R - d)/R) - (R - d)
+    sqrt(2 R d - d^2); deeper, the tool's widest circle has passed the surface and the groove
+    (a height map holds no undercut) is a half disc over a 2R-wide slot d - R deep."""
+    r = radius
+    d = max(depth, 0.0)
+    if d > r:
+        return math.pi * r * r / 2.0 + 2.0 * r * (d - r)
+    return r * r * math.acos((r - d) / r) - (r - d) * math.sqrt(max(2.0 * r * d - d * d, 0.0))
+
+
+def cap_volume(radius: float, depth: float) -> float:
+    """Volume of the print a sphere pressed `depth` leaves, m^3: its cap pi d^2 (3R - d) / 3, and
+    past d = R a hemisphere over a cylinder d - R deep (a groove's two half prints, at its start
+    and end, make one)."""
+    r = radius
+    d = max(depth, 0.0)
+    if d > r:
+        return 2.0 * math.pi * r**3 / 3.0 + math.pi * r * r * (d - r)
+    return math.pi * d * d * (3.0 * r - d) / 3.0
+
+
+def segment_half_width(radius: float, depth: float) -> float:
+    """Half the width of a sphere's groove `depth` deep at the surface, m: sqrt(2 R d - d^2), and
+    R past d = R."""
+    d = min(max(depth, 0.0), radius)
+    return math.sqrt(max(2.0 * radius * d - d * d, 0.0))
+
+
+def sphere_groove_depth(radius: float, area: float) -> float:
+    """The depth d whose groove cross-section (`segment_area`) is `area`, m: past a half disc in
+    closed form, else by bisection on [0, R] (the segment grows monotonically with d)."""
+    if area <= 0.0:
+        return 0.0
+    half_disc = math.pi * radius * radius / 2.0
+    if area >= half_disc:
+        return radius + (area - half_disc) / (2.0 * radius)
+    lo, hi = 0.0, radius
+    for _ in range(DEPTH_STEPS):
+        mid = 0.5 * (lo + hi)
+        if segment_area(radius, mid) < area:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def box_groove_depth(width: float, area: float) -> float:
+    """The depth of a flat-bottomed groove `width` wide whose cross-section is `area`, m."""
+    return max(area, 0.0) / width
+
+
+def sphere_groove_profile(radius: float, depth: float, offset: float) -> float:
+    """How deep a sphere's groove is `offset` metres across from its axis, m (>= 0): the circle
+    of `radius` whose lowest point is `depth` below the surface."""
+    reach = radius * radius - offset * offset
+    if reach <= 0.0:
+        return 0.0
+    return max(depth - (radius - math.sqrt(reach)), 0.0)
