@@ -5,12 +5,23 @@ live in a private mount namespace (tests/faults_helpers.py), never on the machin
 
 from __future__ import annotations
 
+import fcntl
+import json
 import os
+import random
 import shutil
+import signal
 import socket
 import stat
+import subprocess
+import sys
+import threading
+import time
 from pathlib import Path
 
+import pytest
+
+from cli_helpers import dentdemo, python_json
 from dentdemo.cli import main
 from faults_helpers import dentdemo_line, in_namespace, needs_namespace, results, separated
 
@@ -209,11 +220,6 @@ def test_killed_saves_leave_folders_the_next_save_removes_and_a_load_keeps(tmp_p
     """40 SIGKILLs during saves of S left `.S.<random>.new` folders (20 of them, 89 MB after 72
     kills) that nothing removed or mentioned. A load (refused here: the state is a fake) writes
     nothing and keeps them; the next save removes them and says so in one line."""
-    import random
-    import signal
-    import subprocess
-    import sys
-    import time
 
     state = tmp_path / "S"
     rng = random.Random(46)
@@ -228,7 +234,6 @@ def test_killed_saves_leave_folders_the_next_save_removes_and_a_load_keeps(tmp_p
     hidden = sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("."))
     assert hidden and all(name.startswith(".S.") and name.endswith(".new") for name in hidden)
     before = sorted(p.name for p in tmp_path.rglob("*"))
-    from cli_helpers import dentdemo
 
     load = dentdemo(*RENDER, "--out", tmp_path / "l.png", "--load-state", state, cwd=tmp_path)
     assert load.returncode == 1 and len(load.stderr.splitlines()) == 1, load.stderr
@@ -248,7 +253,6 @@ def test_killed_saves_leave_folders_the_next_save_removes_and_a_load_keeps(tmp_p
 def test_a_killed_videos_file_is_removed_by_the_next_render_to_it(tmp_path, capsys):
     """`.v.mp4.<random>.mp4` of a killed video was never removed. The next render of v.mp4
     removes it (saying so), leaves a living writer's alone and touches no other hidden file."""
-    import fcntl
 
     dead = tmp_path / ".v.mp4.k2j4x9ab.mp4"
     dead.write_bytes(b"\0" * 1000)
@@ -269,22 +273,15 @@ def test_a_killed_videos_file_is_removed_by_the_next_render_to_it(tmp_path, caps
     )
 
 
-def _timed(argv: list[object]) -> str:
-    """A shell line running dentdemo ARGV, then printing `rc=N` and `ns=START END` (clock)."""
-    return separated("s=$(date +%s%N); " + dentdemo_line(*argv) + '; echo "ns=$s $(date +%s%N)"')
-
-
 @needs_namespace
 def test_endless_and_blocking_inputs_are_one_line_within_a_second(tmp_path):
     """/dev/zero (a device node of the test's own namespace; a link to it) and a FIFO as a
     scene, a materials file or a saved map: each was read until memory ran out (a MemoryError
-    traceback) or blocked forever. Each is now one line, within a second of the same command
-    refusing a small malformed file (the process's start is most of both)."""
-    from cli_helpers import dentdemo
+    traceback) or blocked forever. Each is now one line, and each read is refused within a
+    second."""
 
     d = tmp_path / "dev"
     d.mkdir()
-    (tmp_path / "bad.toml").write_text("[materials\n")
     state = tmp_path / "S"
     done = dentdemo(
         "render",
@@ -316,7 +313,6 @@ def test_endless_and_blocking_inputs_are_one_line_within_a_second(tmp_path):
     ]
     render = ["render", "--frames", "1", "--size", "32x18", "--out", tmp_path / "x.png"]
     runs = [
-        (["materials", "--materials", tmp_path / "bad.toml"], "malformed TOML"),  # the baseline
         (["materials", "--materials", d / "zero"], "a character device, not a regular file"),
         (["materials", "--materials", tmp_path / "zero.toml"], "a character device"),
         (["materials", "--materials", tmp_path / "fifo.toml"], "a FIFO, not a regular file"),
@@ -326,16 +322,27 @@ def test_endless_and_blocking_inputs_are_one_line_within_a_second(tmp_path):
         ([*render, "--load-state", tmp_path / "Szero"], "a character device"),
         ([*render, "--load-state", tmp_path / "Sfifo"], "a FIFO"),
     ]
-    lines = [_timed(argv) for argv, _ in runs]
+    lines = [separated(dentdemo_line(*argv)) for argv, _ in runs]
+    # The refusal itself, timed inside one process (a process's start is seconds on a loaded
+    # machine): each read of the device, the link and the FIFO ends within a second.
+    probe = (
+        "import sys, time\nfrom dentdemo.model.validate import read_input\n"
+        "for p in sys.argv[1:]:\n    t = time.perf_counter()\n    try:\n"
+        "        read_input(p, 1 << 30)\n    except OSError as e:\n"
+        "        print('took', time.perf_counter() - t, e.strerror)\n"
+    )
+    (tmp_path / "probe.py").write_text(probe)
+    paths = [d / "zero", tmp_path / "zero.toml", tmp_path / "fifo.toml"]
+    paths.append(tmp_path / "Sfifo" / "steel_plate.npy")
+    lines.append(f"{sys.executable} {tmp_path / 'probe.py'} {' '.join(map(str, paths))}")
     done = in_namespace(setup, lines, tmp_path, timeout=240)
     got = results(done)
-    spans = [line[3:].split() for line in done.stdout.splitlines() if line.startswith("ns=")]
-    seconds = [(int(end) - int(start)) * 1e-9 for start, end in spans]
-    assert len(got) == len(runs) == len(seconds), done.stderr
+    assert len(got) == len(runs), done.stderr
     for (argv, fragment), (code, err) in zip(runs, got, strict=True):
         assert code == 1 and len(err) == 1 and fragment in err[0], (argv, code, err)
-    materials = seconds[:4]
-    assert max(materials[1:]) < materials[0] + 1.0, seconds
+    took = [line.split() for line in done.stdout.splitlines() if line.startswith("took ")]
+    assert len(took) == len(paths), done.stdout
+    assert all(float(t[1]) < 1.0 and "not a regular file" in " ".join(t) for t in took), took
 
 
 def test_a_fifo_is_never_opened_by_a_reader_or_the_watcher(tmp_path):
@@ -343,7 +350,6 @@ def test_a_fifo_is_never_opened_by_a_reader_or_the_watcher(tmp_path):
     watched file was hashed five times a second (22 -> 3.4 fps). The watcher and load_toml
     return at once on a FIFO (run in a thread: a blocked open would keep it alive), and a
     file over the bound is fingerprinted by its size, not read."""
-    import threading
 
     from dentdemo.app.watch import FileWatcher
     from dentdemo.errors import ConfigError
@@ -375,3 +381,108 @@ def test_a_fifo_is_never_opened_by_a_reader_or_the_watcher(tmp_path):
     assert str(seen[0]).startswith("unreadable: a FIFO, not a regular file")
     assert str(seen[1]).startswith(f"unreadable: {200 << 20} bytes, more than the {TOML_MAX}")
     assert seen[2] == f"{fifo}: cannot read: a FIFO, not a regular file"
+
+
+_KEYS = """
+import json, sys
+import glfw
+from dentdemo.app.loop import FrameLoop
+from dentdemo.app.window import DemoWindow
+from dentdemo.model.materials import load_materials
+from dentdemo.model.scene import load_scene
+lib = load_materials()
+window = DemoWindow(load_scene(sys.argv[1], lib), lib, (320, 180), "low")
+loop = FrameLoop(window.app, window, fixed_dt=True)
+loop.frame()
+lines = []
+for key in (glfw.KEY_P, glfw.KEY_G, glfw.KEY_F5):
+    window._on_key(window.window, key, 0, glfw.PRESS, 0)
+    lines.append(window.app.message)
+    loop.frame()  # and it runs on
+window.close()
+print(json.dumps(lines))
+"""
+
+
+@needs_namespace
+def test_demo_keys_in_a_read_only_folder_are_panel_lines(xvfb, tmp_path):
+    """Started in a read-only folder, P (screenshot) and G (glTF) killed the demo with
+    `OSError: Read-only file system`, while F5 showed a panel line. All three are panel lines
+    now, and the window runs on."""
+
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    (tmp_path / "keys.py").write_text(_KEYS)
+    scene = Path(__file__).resolve().parents[1] / "assets" / "scenes" / "ball_drop.toml"
+    setup = [f"mount -t tmpfs -o ro,size=1m none {ro}", f"cd {ro}"]
+    line = f"DISPLAY={xvfb} {sys.executable} {tmp_path / 'keys.py'} {scene}; echo rc=$?"
+    done = in_namespace(setup, [line], tmp_path, timeout=180)
+    assert "rc=0" in done.stdout, done.stderr
+    shot, gltf, save = json.loads(done.stdout.splitlines()[-2])
+    assert "dentdemo_001.png" in shot and "Read-only file system" in shot, shot
+    assert "dentdemo.glb" in gltf and "Read-only file system" in gltf, gltf
+    assert "dentdemo_state" in save and "not writable" in save, save
+
+
+_STORM = """
+import json, random, sys
+import glfw
+from dentdemo.app.loop import FrameLoop
+from dentdemo.app.window import DemoWindow
+from dentdemo.model.materials import load_materials
+from dentdemo.model.scene import load_scene
+lib = load_materials()
+window = DemoWindow(load_scene(sys.argv[1], lib), lib, (320, 180), "low")
+loop = FrameLoop(window.app, window, fixed_dt=True)
+imgui = window.imgui
+backends = imgui.backends
+read_sizes = backends.glfw_new_frame
+raced = float(sys.argv[2])
+
+
+class Racing:
+    # imgui's backends, glfw's new frame having read the window's size before a resize landed
+    # and the framebuffer's after it: the scale that race gives (8000 px / 40 px = 200).
+    def __getattr__(self, name):
+        return getattr(backends, name)
+
+    def glfw_new_frame(self):
+        read_sizes()
+        imgui.get_io().display_framebuffer_scale = (raced, raced)
+
+
+imgui.backends = Racing()
+for _ in range(3):
+    loop.frame()
+imgui.backends = backends
+scale = imgui.get_main_viewport().framebuffer_scale.x
+atlas = [imgui.get_io().fonts.tex_data.width, imgui.get_io().fonts.tex_data.height]
+# ... and real resizes: 1 x 1, 8000 x 8000, 1 x 8000, unmapped, a few random ones.
+rng = random.Random(9)
+sizes = [(1, 1), (8000, 8000), (1, 8000)] + [(rng.randint(1, 3000), rng.randint(1, 3000))] * 4
+for w, h in sizes:
+    glfw.set_window_size(window.window, w, h)
+    loop.frame()
+glfw.hide_window(window.window)
+loop.frame()
+glfw.show_window(window.window)
+glfw.set_window_size(window.window, 320, 180)
+loop.frame()
+window.close()
+print(json.dumps({"scale": scale, "atlas": atlas}))
+"""
+
+
+@pytest.mark.parametrize("raced", [200.0, 1000.0])
+def test_a_resize_storm_cannot_exhaust_the_font_atlas(xvfb, raced):
+    """Issue 46 item 9: once in five resize storms the window died in imgui.new_frame() with
+    "IM_ASSERT Out of texture memory" (imgui_freetype.cpp:532): a resize between glfw's two
+    size reads gave a framebuffer scale of hundreds and imgui baked its font at that scale. The
+    race is replayed (its scale set where glfw's backend sets it), then real resizes: the
+    scale is clamped to 4 and the font atlas stays small."""
+
+    scene = Path(__file__).resolve().parents[1] / "assets" / "scenes" / "ball_drop.toml"
+    env = {**os.environ, "DISPLAY": xvfb}
+    got = python_json(_STORM, scene, raced, env=env, timeout=300)
+    assert got["scale"] == 4.0
+    assert got["atlas"][0] * got["atlas"][1] <= 1024 * 1024, got  # 4096 x 8192 at 100

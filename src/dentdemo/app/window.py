@@ -10,8 +10,10 @@ video, G export every body to glTF, Ctrl+Z undo the last frame's hits, Esc quit.
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
+from typing import Any
 
 import moderngl
 
@@ -29,6 +31,24 @@ from dentdemo.model.scene import Scene
 from dentdemo.render.quality import PRESETS
 
 CLICK_PIXELS = 4  # a press that moves less than this is a click, not a drag
+#: The largest framebuffer-to-window scale taken from the platform (HiDPI screens are 1 to 3):
+#: glfw's backend reads the window's size and then the framebuffer's, and a resize landing
+#: between the two (a 40 px wide window, then an 8000 px wide framebuffer) gave 200, at which
+#: imgui bakes its font 200 times over and runs out of font texture (an assert in new_frame).
+MAX_FRAMEBUFFER_SCALE = 4.0
+
+
+def _sane_scale(io: Any) -> None:
+    """Clamp imgui's framebuffer scale (set by glfw's backend this frame) to (0, MAX]; a
+    non-finite or non-positive one is 1."""
+
+    def sane(value: float) -> float:
+        if not math.isfinite(value) or value <= 0.0:
+            return 1.0
+        return min(value, MAX_FRAMEBUFFER_SCALE)
+
+    scale = io.display_framebuffer_scale
+    io.display_framebuffer_scale = (sane(scale.x), sane(scale.y))
 
 
 class DemoWindow:
@@ -146,7 +166,13 @@ class DemoWindow:
 
     def _screenshot_key(self) -> None:
         self._shots += 1
-        self.screenshot(Path(f"dentdemo_{self._shots:03d}.png"))
+        path = Path(f"dentdemo_{self._shots:03d}.png")
+        try:
+            self.screenshot(path)
+        except DentdemoError as exc:  # a folder that cannot be written: a panel line
+            self.app.message = str(exc).splitlines()[0]
+            return
+        self.app.message = f"wrote {path}"
 
     # -- panel ---------------------------------------------------------------------------------
     def _panel(self, fps: float, frame_ms: float) -> None:
@@ -303,6 +329,7 @@ class DemoWindow:
         flush()  # the rasteriser finishes the frame while the panel is built
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
+        _sane_scale(imgui.get_io())
         imgui.new_frame()
         self._panel(self._fps, self._frame_ms)
         imgui.render()
