@@ -81,9 +81,11 @@ def test_indent_tool_pattern_png(tmp_path):
     assert result.returncode == 0, result.stderr
     target = np.load(out / "target_height.npy")
     dented = target[target < -1e-6]
-    # Two levels: the face at 2 mm, the tool's stripes 1 mm deeper.
+    # The face at 2 mm, the tool's stripes up to 1 mm deeper. The tool's surface is its height
+    # map bilinear between texel centres (as drawn): a one-pixel stripe is a tent one texel
+    # wide either side, whose top only a target texel centre on the tool texel's centre meets.
     assert np.isclose(dented, -0.002, atol=2e-5).mean() > 0.5
-    assert np.isclose(dented, -0.003, atol=2e-5).mean() > 0.05
-    assert json.loads((out / "summary.json").read_text())["max_depth_m"] == pytest.approx(
-        0.003, abs=2e-5
-    )
+    assert dented.min() >= -0.003 - 2e-5  # never below the bump's top
+    assert (dented < -0.0022).mean() > 0.05  # the stripes are printed
+    deepest = json.loads((out / "summary.json").read_text())["max_depth_m"]
+    assert 0.0024 < deepest <= 0.003 + 2e-5
