@@ -3,14 +3,29 @@
 from __future__ import annotations
 
 import os
+import select
 import shutil
 import subprocess
-import time
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+
+# Under pytest-xdist (./scripts/test runs it) every worker is a process with its own llvmpipe,
+# whose rasteriser starts a thread per core: the workers together would run workers x cores
+# rasterising threads on the cores. Each worker gets its share, at least one, set before any GL
+# context exists; the command-line processes the tests start inherit it.
+_WORKERS = os.environ.get("PYTEST_XDIST_WORKER_COUNT")
+if _WORKERS and "LP_NUM_THREADS" not in os.environ:
+    os.environ["LP_NUM_THREADS"] = str(max(1, (os.cpu_count() or 1) // int(_WORKERS)))
+
+
+def pytest_collection_modifyitems(items):
+    """A test that opens a window (it uses the `xvfb` display) is marked `window`."""
+    for item in items:
+        if "xvfb" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.window)
 
 
 @pytest.fixture(scope="session")
@@ -95,18 +110,38 @@ def tmp_toml(tmp_path):
 
 
 def _xvfb_display():
+    """Xvfb on a display number of its own: parallel workers and other checkouts' runs each get
+    another (a taken number's lock file makes Xvfb exit, and the next is tried). Never :0, where
+    Xlib falls back when DISPLAY names no server (tests/bad_input_cases.py's bad display). The
+    number comes back through `-displayfd` once the server accepts clients."""
     if shutil.which("Xvfb") is None:
         return None
-    display = f":{90 + os.getpid() % 500}"
+    first = 100 + os.getpid() % 800
+    for number in range(first, first + 40):
+        started = _xvfb(number)
+        if started is not None:
+            return started
+    return None
+
+
+def _xvfb(number: int):
+    read, write = os.pipe()
     proc = subprocess.Popen(
-        ["Xvfb", display, "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+        ["Xvfb", f":{number}", "-displayfd", str(write), "-screen", "0", "1280x800x24"]
+        + ["-nolisten", "tcp"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        pass_fds=(write,),
     )
-    time.sleep(1.0)
-    if proc.poll() is not None:
+    os.close(write)
+    with os.fdopen(read) as pipe:  # a line once ready; end of file if Xvfb exits first
+        ready, _, _ = select.select([pipe], [], [], 30.0)
+        line = pipe.readline().strip() if ready else ""
+    if line != str(number) or proc.poll() is not None:
+        proc.kill()
+        proc.wait(timeout=10)
         return None
-    return display, proc
+    return f":{number}", proc
 
 
 @pytest.fixture(scope="session")

@@ -26,6 +26,7 @@ def test_the_table_covers_every_area_with_enough_cases():
     assert sum(per_area.values()) >= 120, per_area
     assert min(per_area.values()) >= 8, per_area
     assert len({case.id for case in CASES}) == len(CASES)
+    assert SLOW_CASES <= {case.id for case in CASES}
 
 
 def _files_under(folder: Path) -> set[str]:
@@ -34,7 +35,11 @@ def _files_under(folder: Path) -> set[str]:
 
 def _run(case: Case, folder: Path, monkeypatch, capsys) -> tuple[int, str, str]:
     argv = [arg.replace("{d}", str(folder)) for arg in case.argv]
-    if any(key.startswith("PYTHON") for key in case.env):  # read at interpreter start only
+    # In a process of its own: what the interpreter reads at start (PYTHON*), and GLX, whose
+    # X connection is the process's own native state (after another test's GL work in the same
+    # process, Xlib ends the process on a bad display instead of failing the call).
+    fresh = case.env.get("DENTDEMO_GL_BACKEND") == "glx"
+    if fresh or any(key.startswith("PYTHON") for key in case.env):
         env = {**os.environ}
         for key, value in case.env.items():
             env.pop(key, None) if value is None else env.__setitem__(key, value)
@@ -63,7 +68,26 @@ def _run(case: Case, folder: Path, monkeypatch, capsys) -> tuple[int, str, str]:
     return code, out, err
 
 
-@pytest.mark.parametrize("case", CASES, ids=[case.id for case in CASES])
+#: The cases that run a whole command (a render, a demo until its screenshot): `slow`.
+SLOW_CASES = {
+    "flags-demo_screenshot_alone_ends_after_3_s",
+    "env-warnings_as_errors_still_one_line",
+    "flags-render_literal_percent_accepted",
+    "flags-render_pattern_with_literal_percent_accepted",
+    "flags-render_accepted",
+    "bump-rgba_white_is_the_bump_height",
+    "bump-8bit_white_is_the_bump_height",
+    "flags-save_state_replaces_an_earlier_state_whole",
+}
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        pytest.param(case, id=case.id, marks=pytest.mark.slow if case.id in SLOW_CASES else ())
+        for case in CASES
+    ],
+)
 def test_bad_input(case: Case, tmp_path, monkeypatch, capsys):
     folder = tmp_path / "case"
     folder.mkdir()

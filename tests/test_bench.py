@@ -45,6 +45,7 @@ def test_gl_call_count_counts_each_call_once_and_only_while_open(gl):
     texture.release()
 
 
+@pytest.mark.slow
 def test_bench_tiny_json_schema(gl, tmp_path):
     out, plot = tmp_path / "bench.json", tmp_path / "bench.png"
     result = dentdemo(
@@ -121,6 +122,7 @@ def test_bench_tiny_json_schema(gl, tmp_path):
     assert "GPU ms/hit" in result.stdout and data["machine"]["renderer"] in result.stdout
 
 
+@pytest.mark.slow
 def test_the_frame_table_times_planning_undo_and_proxies_inside_the_carve(gl):
     """The sandbox frame table's parts of a hit's carve: the time of every `Carver.plan_many`
     call the frames made, of every `UndoLog.record` and of every `Simulation._follow_dents`
@@ -160,6 +162,7 @@ def test_the_frame_table_times_planning_undo_and_proxies_inside_the_carve(gl):
     assert sum(parts) <= row["carve_ms_per_hit"]
 
 
+@pytest.mark.slow
 def test_bench_window_measures_the_real_window(xvfb, tmp_path):
     """`bench --window` runs the interactive window (wall-clock stepping, panel on) per preset
     and body count: one row each, at the window's own 1280 x 720 framebuffer, the body count
@@ -188,6 +191,7 @@ def test_bench_window_measures_the_real_window(xvfb, tmp_path):
 
 
 @pytest.mark.parametrize("offset,depth", [((0.0, 0.0), 0.01), ((0.21, -0.13), 0.004)])
+@pytest.mark.slow
 def test_cpu_reference_matches_the_gpu_path(gl, offset, depth):
     carver = Carver(gl)
     gpu = setup(gl, offset=offset, tool_map_size=256)

@@ -58,6 +58,7 @@ def test_scene_bump_map_missing_file_is_an_error(tmp_path):
         load_scene(tmp_path / "scene.toml", load_materials())
 
 
+@pytest.mark.slow
 def test_indent_tool_pattern_png(tmp_path):
     _stripes(tmp_path / "p.png", 256)
     out = tmp_path / "out"

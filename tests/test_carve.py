@@ -252,6 +252,7 @@ def test_dent_across_sphere_chart_seam_is_continuous(gl, carver):
     release(s)
 
 
+@pytest.mark.slow
 def test_no_nan_after_random_and_degenerate_presses(gl, carver):
     rng = np.random.default_rng(7)
     s = setup(gl, map_size=256, tool_map_size=128, max_dent_depth=0.02)
@@ -292,6 +293,7 @@ def test_no_nan_after_random_and_degenerate_presses(gl, carver):
     release(big)
 
 
+@pytest.mark.slow
 def test_carving_reads_nothing_back(gl, carver, monkeypatch):
     s = setup(gl, map_size=256)
     calls = []

@@ -49,6 +49,7 @@ def _maps(gl, body) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("max_resolution", [1023, 40], ids=["one-batch", "atlas-overflow"])
+@pytest.mark.slow
 def test_disjoint_hits_in_a_batch_equal_one_by_one(gl, max_resolution):
     bodies = Bodies(gl)
     carver = Carver(gl, CarverOptions(max_resolution=max_resolution))
@@ -273,6 +274,7 @@ def _sphere_press(bodies, kind: str, degrees: float):
         ("capsule-side", 20),
     ],
 )
+@pytest.mark.slow
 def test_spheres_drawn_as_quads_carve_as_their_facets_did(gl, bodies, kind, degrees):
     """Passes 2 and 3 draw a built-in sphere or capsule as one quad over its extent and find its
     exact surface per pixel; the dents match those of the solid drawn as its facets (which found

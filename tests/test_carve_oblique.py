@@ -32,6 +32,7 @@ def swept_ball_depth(
 
 
 @pytest.mark.parametrize("degrees", [0.0, 20.0, 30.0, 45.0])
+@pytest.mark.slow
 def test_an_oblique_press_dents_to_the_swept_ball(gl, degrees):
     ctx = gl.ctx
     plate = dentdemo.DentableSurface(ctx, dentdemo.shape_mesh(dentdemo.Plate(SIDE)), SIZE)

@@ -89,6 +89,7 @@ CASES = {"shelf": _shelf, "bowl": _bowl, "torus": _torus, "ledge": _ledge}
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.slow
 def test_a_press_dents_only_what_the_tool_meets(gl, case):
     host, contact, direction = CASES[case]()
     depth = 0.001 if case == "ledge" else DEPTH

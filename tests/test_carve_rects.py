@@ -68,6 +68,7 @@ def inverse_transpose(m: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("case", list(_CASES))
+@pytest.mark.slow
 def test_a_sphere_as_texel_rectangles_carves_as_its_triangles_did(gl, bodies, case):
     """Both bodies' heights to 1e-6 m, the same texels dented, and the normals to one step of
     their 8-bit encoding, at a face's centre, across a cube edge and corner (chart borders: the
@@ -114,6 +115,7 @@ def _from_facet_edge(grid: int, size: int, xs: np.ndarray, ys: np.ndarray) -> np
     return np.minimum(across, np.abs(fx - fy) * w * h / math.hypot(w, h))
 
 
+@pytest.mark.slow
 def test_passes_4_and_5_over_a_sphere_draw_two_triangles_whatever_its_tessellation(gl, bodies):
     """A slab pressed square-on onto a cube face's centre (one chart, no chart border in the
     footprint): passes 4 and 5 each draw one rectangle, two triangles, for a sphere of 12, 32 or
@@ -149,6 +151,7 @@ def test_passes_4_and_5_over_a_sphere_draw_two_triangles_whatever_its_tessellati
 
 
 @pytest.mark.parametrize("grid", [12, 24, 96])
+@pytest.mark.slow
 def test_rectangles_are_drawn_where_the_triangles_are_fine(gl, bodies, grid):
     """By default (`RECT_TEXELS_PER_TRIANGLE`) a sphere's chart texels are drawn as rectangles
     where the footprint's triangles hold at most 3 texels of their charts' boxes each, else as

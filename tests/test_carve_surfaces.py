@@ -94,6 +94,7 @@ TARGETS = ["plate", "box", "sphere", "capsule", "mesh", "ball"]
     + [(k, s, "slab") for k in ("ball", "mesh") for s in (512, 2048)]
     + [("mesh", 512, "ball"), ("mesh", 2048, "ball")],
 )
+@pytest.mark.slow
 def test_every_texel_of_the_dent_is_carved(gl, carver, bodies, kind, map_size, tool, tilted):
     target, other, contact = press(bodies, kind, map_size, tilted, tool=tool)
     carver.carve(target, other, contact, DEPTH)
@@ -144,6 +145,7 @@ def _ray_exit(p: np.ndarray, d: np.ndarray, centre: np.ndarray, radius: float) -
     return np.where((disc > 0) & (t > 0), t, np.nan)
 
 
+@pytest.mark.slow
 def test_ball_on_a_box_edge_dents_both_faces_continuously(gl, carver, bodies):
     half, size, depth, radius = 0.15, 1024, 0.006, 0.05
     box = bodies.make(press_mesh(Box((0.3, 0.3, 0.3)), 2), size)
@@ -364,6 +366,7 @@ def test_normals_in_a_dent_on_the_sphere_follow_the_cut(gl, carver, bodies, subd
 @pytest.mark.parametrize(
     "case", ["ball-plate", "ball-sphere-tilted", "corner-plate", "ball-capsule", "ball-mesh"]
 )
+@pytest.mark.slow
 def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
     results = {}
     for loose in (False, True):
@@ -408,6 +411,7 @@ def test_footprint_camera_is_tight_and_never_cuts_a_dent(gl, bodies, case):
 
 # -- the CPU path follows the same method ------------------------------------------------------
 @pytest.mark.parametrize("kind", ["box", "sphere", "capsule", "mesh"])
+@pytest.mark.slow
 def test_cpu_reference_agrees_on_curved_and_edged_targets(gl, carver, bodies, kind):
     maps = []
     for path in ("gpu", "cpu"):
@@ -512,6 +516,7 @@ def _chart_texels(mesh, size: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("kind", ["box", "sphere", "capsule", "mesh"])
+@pytest.mark.slow
 def test_chart_mask_bits_are_each_texel_and_its_neighbours(gl, bodies, kind):
     """The chart mask holds, for every texel, whether it and each of its four neighbours lie in a
     chart (bits 0-4): against a raster of the mesh's uv triangles made here in numpy."""

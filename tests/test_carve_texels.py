@@ -178,6 +178,7 @@ def unoccluded_from_below(points: np.ndarray, tris: np.ndarray, cell: float) -> 
     [(4, 0.06, 1, 1024), (4, 0.1, 3, 1024), (4, 0.06, 1, 256)],
     ids=["bumpy-fine-pixels", "rough-fine-pixels", "bumpy-coarse-pixels"],
 )
+@pytest.mark.slow
 def test_no_single_texel_stays_undented_in_a_deep_dent_on_a_bumpy_mesh(
     gl, carver, bodies, subdivisions, amplitude, seed, tool_map
 ):
@@ -324,6 +325,7 @@ def _decode(rgba: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("target", ["sphere-24", "sphere-8", "plate"])
+@pytest.mark.slow
 def test_rebuilt_normals_follow_the_heights_through_each_texel_s_metric(gl, carver, bodies, target):
     size, depth = 512, 0.012
     if target == "plate":

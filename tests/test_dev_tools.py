@@ -102,6 +102,7 @@ def test_the_map_view_colours_heights_on_the_gpu(app, gl):
     assert app.map_textures() is None
 
 
+@pytest.mark.slow
 def test_the_profiler_keeps_the_last_seconds_of_every_phase(app):
     loop = FrameLoop(app, ImageBackend((320, 180), None), fixed_dt=True)
     loop.run(frames=6)
@@ -138,6 +139,7 @@ window.close()
 """
 
 
+@pytest.mark.slow
 def test_recording_the_window_writes_an_mp4_at_the_fixed_step(xvfb, tmp_path):
     import imageio_ffmpeg
 

@@ -68,6 +68,7 @@ def _outline(alpha: np.ndarray) -> tuple[float, float, float]:
     # The fallback at medium: at high it draws 1.8 million triangles here, 6 s on llvmpipe.
     [("tessellation", "high"), ("mesh", "medium")],
 )
+@pytest.mark.slow
 def test_a_ball_cut_by_a_box_shows_the_exact_chord(gl, tmp_path, path, quality):
     _need(gl, path)
     alpha, summary = _press_render(
@@ -88,6 +89,7 @@ def _need(gl, path: str) -> None:
 
 
 @pytest.mark.parametrize("path, quality", [("tessellation", "high"), ("mesh", "medium")])
+@pytest.mark.slow
 def test_a_cut_across_the_chart_seams_has_no_crack(gl, path, quality):
     """Pressed R/3, the cut reaches 48.2 degrees from the top, past the cube-sphere's chart seams
     at 45: triangles on either side of a seam sample different charts of the map, and triangles
@@ -126,6 +128,7 @@ def test_a_cut_across_the_chart_seams_has_no_crack(gl, path, quality):
     assert np.count_nonzero(alpha[inside] < 255) == 0
 
 
+@pytest.mark.slow
 def test_the_low_preset_moves_the_mesh_vertices(tmp_path):
     """No cuts at low (no tessellation stages, whatever GL offers): the press mesh's own
     vertices (1.6 mm apart here, 11 px) move, and the outline is cut all the same, though the
@@ -136,6 +139,7 @@ def test_the_low_preset_moves_the_mesh_vertices(tmp_path):
     assert abs(height - (2 * R - D) * scale) < 1.5
 
 
+@pytest.mark.slow
 def test_without_displacement_the_outline_stays_round(tmp_path):
     alpha, summary = _press_render(tmp_path, "--no-displace")
     assert summary["displacement"] is None
@@ -145,6 +149,7 @@ def test_without_displacement_the_outline_stays_round(tmp_path):
     assert flat < 3.0 * np.sqrt(R * scale) < CHORD * scale / 4
 
 
+@pytest.mark.slow
 def test_the_shadow_pass_displaces_too(gl):
     """The sun straight down on the cut ball: the shadow map's depth over the ball's middle is the
     cut plane's (R - d above the centre), not the sphere's top (R); the light's view is
@@ -204,6 +209,7 @@ def test_refine_cuts_each_triangle_into_k_squared_on_its_plane():
     assert cuts_for(0.001, 0.001, 2.0, 64) == 1
 
 
+@pytest.mark.slow
 def test_the_path_is_chosen_at_run_time_and_shown_in_info(monkeypatch):
     from dentdemo.errors import DentdemoError
     from dentdemo.render.displacement import displacement_path

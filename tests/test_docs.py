@@ -51,8 +51,9 @@ def test_the_version_is_pyprojects_everywhere():
     out = subprocess.run(
         [sys.executable, "-m", "dentdemo", "--version"], capture_output=True, text=True, check=True
     ).stdout
-    assert out.strip() == f"dentdemo {version}"
-    assert dentdemo.__version__ == version
+    assert out.strip() == f"dentdemo {version}", "stale install: run ./scripts/test"
+    # The installed metadata is the install's: ./scripts/test reinstalls when pyproject changes.
+    assert dentdemo.__version__ == version, "stale install: run ./scripts/test"
     releases = re.findall(
         r"^## \[(\d[^\]]*)\] - \d{4}-\d{2}-\d{2}$", (ROOT / "CHANGELOG.md").read_text(), re.M
     )

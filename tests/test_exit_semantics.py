@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from dentdemo import interrupt
 from dentdemo.cli import main
 from dentdemo.resources import assets_dir
@@ -31,6 +33,7 @@ def _ctrl_c_while_writing_the_png(monkeypatch) -> None:
     monkeypatch.setattr(loop, "write_png", write_png)
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_the_last_write_reports_success_alone(tmp_path, monkeypatch, capsys):
     _ctrl_c_while_writing_the_png(monkeypatch)
     out = tmp_path / "o.png"
@@ -40,6 +43,7 @@ def test_ctrl_c_during_the_last_write_reports_success_alone(tmp_path, monkeypatc
     assert out.stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_ctrl_c_before_a_later_output_reports_interruption_alone(tmp_path, monkeypatch, capsys):
     """The PNG is written when the Ctrl-C comes; the maps are not begun: the command says it was
     interrupted (130) and reports no output."""
@@ -65,6 +69,7 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
+@pytest.mark.slow
 def test_esc_before_exit_after_with_a_screenshot_is_one_line_and_status_1(xvfb, tmp_path):
     shot = tmp_path / "shot.png"
     env = {**os.environ, "DISPLAY": xvfb}
@@ -83,6 +88,7 @@ def test_esc_before_exit_after_with_a_screenshot_is_one_line_and_status_1(xvfb, 
     assert not shot.exists()
 
 
+@pytest.mark.slow
 def test_a_run_that_reaches_exit_after_still_exits_0(xvfb, tmp_path):
     """The same window, not closed early: the screenshot is written and the status is 0."""
     shot = tmp_path / "shot.png"

@@ -145,6 +145,7 @@ def exports(gl_session, tmp_path_factory) -> dict:
     return held
 
 
+@pytest.mark.slow
 def test_every_shipped_scene_exports_valid_gltf_after_150_frames(exports):
     paths = [exports[s.stem]["path"] for s in SCENES] + [exports["ball_drop.gltf"]]
     reports = validate(*paths)
@@ -336,6 +337,7 @@ def test_node_pose_is_the_model_matrix():
             np.testing.assert_allclose(Read.matrix(node), model, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_render_gltf_writes_a_valid_file(tmp_path):
     out, glb = tmp_path / "last.png", tmp_path / "scene.glb"
     done = run_dentdemo(
@@ -389,6 +391,7 @@ def test_demo_gltf_key_button_and_exit(gl, tmp_path):
     app.close()
 
 
+@pytest.mark.slow
 def test_demo_without_display_writes_gltf_at_the_end(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     glb = tmp_path / "end.glb"
@@ -415,6 +418,7 @@ window.run(exit_after=0.05, gltf=Path(sys.argv[3]))
 """
 
 
+@pytest.mark.slow
 def test_window_key_g_and_exit_write_gltf(xvfb, tmp_path):
     key, end = tmp_path / "key.glb", tmp_path / "end.glb"
     done = subprocess.run(

@@ -308,6 +308,7 @@ def test_the_watcher_reads_a_save_once_whole(tmp_path):
 WINDOW_SCENE_SECONDS = 12.0  # simulated, one dt a frame: 3.5 s of wall time here (llvmpipe)
 
 
+@pytest.mark.slow
 def test_real_window_reloads_and_reports_a_bad_edit(xvfb, tmp_path):
     user, scene_path = _files(tmp_path)
     env = {**os.environ, "DISPLAY": xvfb}

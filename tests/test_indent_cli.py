@@ -9,6 +9,7 @@ from PIL import Image
 from cli_helpers import dentdemo
 
 
+@pytest.mark.slow
 def test_indent_reports_the_cap_error(tmp_path):
     out = tmp_path / "press"
     result = dentdemo(
@@ -54,6 +55,7 @@ def test_indent_reports_the_cap_error(tmp_path):
         (["--depth", "0.01", "--normal", "0", "0", "0"], "--normal"),
     ],
 )
+@pytest.mark.slow
 def test_indent_bad_arguments(tmp_path, args, fragment):
     result = dentdemo("indent", *args, "--out", str(tmp_path))
     assert result.returncode != 0

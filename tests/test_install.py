@@ -27,6 +27,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
+#: Builds a wheel and a virtual environment: `./scripts/test -m "not install"` leaves it out.
+pytestmark = [pytest.mark.install, pytest.mark.slow]
+
 ROOT = Path(__file__).resolve().parents[1]
 #: What the wheel must carry beside the code, as (folder in the repository, folder in the wheel).
 SHIPPED = (("shaders", "dentdemo/shaders"), ("assets", "dentdemo/assets"))

@@ -60,6 +60,7 @@ def test_ctrl_c_stops_simulate_inside_the_ode_loop(tmp_path):
     _check(code, err, seconds)
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_render_and_leaves_no_file(tmp_path):
     out = tmp_path / "frames"
     code, err, seconds = _interrupt(
@@ -84,6 +85,7 @@ def test_ctrl_c_stops_render_and_leaves_no_file(tmp_path):
     assert not out.exists() or list(out.rglob("*")) == []
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_indent_and_leaves_no_file(tmp_path):
     out = tmp_path / "press"
     code, err, seconds = _interrupt(
@@ -104,6 +106,7 @@ def test_ctrl_c_stops_indent_and_leaves_no_file(tmp_path):
     assert not out.exists() or list(out.rglob("*")) == []
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_bench_and_leaves_no_file(tmp_path):
     code, err, seconds = _interrupt(
         ["bench", "--json", str(tmp_path / "b.json"), "--plot", str(tmp_path / "b.png")],
@@ -113,6 +116,7 @@ def test_ctrl_c_stops_bench_and_leaves_no_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_the_headless_demo(tmp_path):
     code, err, seconds = _interrupt(["demo", "--exit-after", "3000"], tmp_path)
     assert code == 130 and seconds < 1.0, err

@@ -22,6 +22,7 @@ def test_the_footprint_mask_is_the_projected_disc():
 
 
 @pytest.mark.parametrize("quality", ["low", "high"])
+@pytest.mark.slow
 def test_a_one_millimetre_dent_is_visible_in_a_close_up(gl, quality):
     fraction, plain, dent = visible_fraction(gl, quality=PRESETS[quality])
     assert fraction >= 0.5, f"{fraction:.2%} of the footprint changed by 10 levels or more"

@@ -112,6 +112,7 @@ def _directions(count: int, seed: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("n", [1, 5, 12, 48])
+@pytest.mark.slow
 def test_a_spheres_frame_is_the_triangle_under_the_point(n):
     # Oracle: the triangle that the ray from the centre along the point's direction crosses
     # (its barycentric coordinates all >= 0, from solving the ray-plane system), and the uv of

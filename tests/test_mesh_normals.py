@@ -59,6 +59,7 @@ def test_normals_agree_at_split_seam_vertices():
 
 
 @pytest.mark.filterwarnings("ignore:.*re-atlasing")  # STL has no UVs: re-atlased, as it should
+@pytest.mark.slow
 def test_stl_style_triangles_are_smooth_and_cube_edges_stay_hard(tmp_path):
     import trimesh
 

@@ -83,6 +83,7 @@ def test_time_scale_nan_is_refused_and_the_demo_keeps_stepping(app):
     assert app.update(1.0 / 30.0) == 2
 
 
+@pytest.mark.slow
 def test_time_scale_set_around_the_setter_is_recovered_by_reset(app):
     """A NaN time debt (the scale set to NaN on the Simulation itself) is cleared by R."""
     app.sim.time_scale = math.nan
@@ -127,6 +128,7 @@ print(json.dumps({"on_panel": on_panel, "on_scene": on_scene}))
 """
 
 
+@pytest.mark.slow
 def test_a_click_on_the_panel_drops_no_ball(xvfb):
     """A click on the panel, before imgui has drawn a frame with the cursor there, drops nothing;
     the same click on the floor drops one ball."""

@@ -143,6 +143,7 @@ def _ball_drop_world():
     return build_world(load_scene(BALL_DROP, LIB))
 
 
+@pytest.mark.slow
 def test_ball_drop_is_deterministic_and_settles():
     runs = []
     for _ in range(2):
@@ -282,6 +283,7 @@ def _hand_mass(body: dict) -> float | None:
     return rho * math.prod(body["size"])
 
 
+@pytest.mark.slow
 def test_simulate_json_matches_eq2_and_repeats_exactly():
     """Every printed impact against eq. 2 written out here from the paper, with masses and
     restitutions read from the scene and materials files, and the first impact (the clay ball
@@ -383,6 +385,7 @@ def _without_libode(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True)
 
 
+@pytest.mark.slow
 def test_missing_ode_library_is_one_clear_line():
     result = _without_libode("simulate", "--scene", str(BALL_DROP), "--steps", "1")
     assert result.returncode == 1

@@ -49,6 +49,7 @@ def _example(tmp_path: Path, *flags: str) -> tuple[dict, np.ndarray]:
     return summary, np.asarray(Image.open(out)).astype(int)
 
 
+@pytest.mark.slow
 def test_example_carves_a_visible_dent_headless(tmp_path):
     dented, after = _example(tmp_path)
     plain, before = _example(tmp_path, "--no-press")

@@ -186,6 +186,7 @@ def _soft_drop(gl, tmp_path):
     return Simulation(gl, load_scene(tmp_path / "s.toml", lib), lib)
 
 
+@pytest.mark.slow
 def test_a_reshaped_body_saves_and_resumes_bit_for_bit(gl, tmp_path):
     import json
 

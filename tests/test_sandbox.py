@@ -21,7 +21,8 @@ from dentdemo.render.camera import OrbitCamera
 ROOT = Path(__file__).resolve().parents[1]
 BALL_DROP = ROOT / "assets" / "scenes" / "ball_drop.toml"
 SIZE = (480, 270)
-FRAMES = 90
+#: ball_drop's first bounces (frames 19-32) are carved and in view by then.
+FRAMES = 45
 
 
 def _png(path: Path) -> np.ndarray:
@@ -38,6 +39,7 @@ def renders(tmp_path_factory):
     return paths
 
 
+@pytest.mark.slow
 def test_headless_render_is_pixel_identical_twice(renders):
     a, b = _png(renders["a"]), _png(renders["b"])
     assert a.shape == (SIZE[1], SIZE[0], 3)
@@ -45,6 +47,7 @@ def test_headless_render_is_pixel_identical_twice(renders):
     assert a.std() > 10  # a scene, not a blank image
 
 
+@pytest.mark.slow
 def test_dents_change_the_image_only_near_impacts(renders, gl):
     dented, flat = _png(renders["a"]), _png(renders["flat"])
     changed = np.abs(dented - flat).sum(axis=2) > 24
@@ -78,6 +81,7 @@ def test_dents_change_the_image_only_near_impacts(renders, gl):
     sim.close()
 
 
+@pytest.mark.slow
 def test_render_writes_every_frame_and_maps(tmp_path):
     out = tmp_path / "frame_%04d.png"
     result = dentdemo(
@@ -110,6 +114,7 @@ def test_render_writes_every_frame_and_maps(tmp_path):
         (["--scene", "/nonexistent.toml"], "/nonexistent.toml"),
     ],
 )
+@pytest.mark.slow
 def test_render_bad_arguments(tmp_path, args, fragment):
     result = dentdemo("render", "--out", str(tmp_path / "x.png"), *args)
     assert result.returncode != 0 and fragment in result.stderr
@@ -117,6 +122,7 @@ def test_render_bad_arguments(tmp_path, args, fragment):
     assert not (tmp_path / "x.png").exists()
 
 
+@pytest.mark.slow
 def test_panel_actions_through_the_controller(gl, tmp_path):
     lib = load_materials()
     app = DemoController(gl, load_scene(BALL_DROP, lib), lib, (320, 180))
@@ -170,6 +176,7 @@ def test_panel_actions_through_the_controller(gl, tmp_path):
     app.close()
 
 
+@pytest.mark.slow
 def test_the_frame_loop_freezes_the_loaded_scene_and_a_reset_collects_the_old(gl):
     """Once a frame loop starts, what is alive (the loaded scene among it) is frozen out of the
     garbage collector's scans (app/heap.py): a cycle made before it outlives `gc.collect`, as
@@ -225,6 +232,7 @@ def test_impact_queue_never_drops_a_hit(gl):
     sim.close()
 
 
+@pytest.mark.slow
 def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):
     shot = tmp_path / "shot.png"
     env = {**os.environ, "DISPLAY": xvfb}
@@ -266,6 +274,7 @@ print(json.dumps(values))
 """
 
 
+@pytest.mark.slow
 def test_window_framebuffer_is_single_sampled_without_depth(xvfb):
     """The window only receives finished frames. A multisampled default framebuffer (glfw's
     old default here was 4 samples) made every touch of the screen and every swap resolve 4
@@ -276,6 +285,7 @@ def test_window_framebuffer_is_single_sampled_without_depth(xvfb):
     assert values == {"samples": 0, "depth_bits": 0}
 
 
+@pytest.mark.slow
 def test_demo_without_display_renders_headless(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     result = dentdemo(
@@ -441,6 +451,7 @@ def test_a_body_s_first_hit_makes_no_vertex_array_or_index_stream(gl, scene, dro
     ],
     ids=["ball-drop", "crates"],
 )
+@pytest.mark.slow
 def test_every_pass_a_hit_draws_a_body_with_is_one_the_body_was_made_and_warmed_for(
     gl, scene, drops
 ):
@@ -500,6 +511,7 @@ def test_every_pass_a_hit_draws_a_body_with_is_one_the_body_was_made_and_warmed_
         sim.close()
 
 
+@pytest.mark.slow
 def test_warming_a_body_changes_no_texel_and_gives_the_state_back(gl):
     """Carver.warm draws every pass that may draw a body into an empty viewport: the body's
     height and normal maps, dented before, are the same bytes after a carver that has warmed

@@ -18,6 +18,7 @@ def test_there_are_example_scenes_beyond_ball_drop():
 
 
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+@pytest.mark.slow
 def test_scene_runs_and_dents(gl, path):
     from dentdemo.model.scene import load_scene
 

@@ -215,6 +215,7 @@ def _fingerprint(gl, sim) -> tuple:
 
 
 @pytest.mark.parametrize("how,fragments", CASES, ids=[c[0] for c in CASES])
+@pytest.mark.slow
 def test_damaged_state_is_one_line_and_changes_nothing(gl, saved, tmp_path, how, fragments):
     from dentdemo.app.state import load_state
 
@@ -239,6 +240,7 @@ def test_damaged_state_is_one_line_and_changes_nothing(gl, saved, tmp_path, how,
         sim.close()
 
 
+@pytest.mark.slow
 def test_the_saved_state_itself_loads_and_keeps_every_entry(gl, saved):
     """The undamaged folder the cases start from loads: the checks refuse damage, not states."""
     from dentdemo.app.state import load_state
@@ -254,6 +256,7 @@ def test_the_saved_state_itself_loads_and_keeps_every_entry(gl, saved):
         sim.close()
 
 
+@pytest.mark.slow
 def test_cli_load_of_a_damaged_state_is_one_line_and_status_1(saved, tmp_path, capsys):
     from dentdemo.cli import main
 
@@ -388,6 +391,7 @@ KILL_POINTS = [
     KILL_POINTS,
     ids=[f"{'exchange' if e else 'aside'}-{p}" for e, p in KILL_POINTS],
 )
+@pytest.mark.slow
 def test_a_save_stopped_at_any_step_leaves_the_old_state_or_the_new(
     gl, saved, tmp_path, monkeypatch, exchange, point
 ):
@@ -456,6 +460,7 @@ outputs.write_folder(Path(sys.argv[1]), {"state.json": b"{}", "a.npy": b"new"})
 """
 
 
+@pytest.mark.slow
 def test_sigkill_between_the_renames_is_named_at_load(gl, saved, tmp_path):
     """A real SIGKILL with the previous folder renamed aside and the new one not yet in: the
     load names the leftover that holds the previous state."""
@@ -485,6 +490,7 @@ def test_sigkill_between_the_renames_is_named_at_load(gl, saved, tmp_path):
     assert _loads_with_time(gl, folder) == _time_of(saved)
 
 
+@pytest.mark.slow
 def test_a_save_killed_before_any_of_its_file_operations_leaves_a_loadable_state(
     gl, saved, tmp_path, monkeypatch
 ):

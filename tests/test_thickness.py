@@ -45,6 +45,7 @@ def test_a_scene_plate_carries_its_thickness():
     assert np.all(vertex_thickness(mesh) == np.float32(0.015))
 
 
+@pytest.mark.slow
 def test_ray_cast_into_faceted_meshes():
     # A sphere mesh with its closed form taken away: through the centre to the far side.
     sphere = primitives.sphere(0.05, subdivisions=16)
@@ -125,6 +126,7 @@ def test_a_ball_does_not_go_through_a_plate(gl):
     assert deep.any() and np.all(h[deep] == np.float32(-thick))
 
 
+@pytest.mark.slow
 def test_a_block_does_not_cut_through_a_thin_torus(gl):
     """A torus (major 0.1 m, tube 5 mm) pressed 15 mm at its outer equator by a block: the dent
     stops at the tube's 10 mm across (to the facets' sagitta)."""

@@ -461,6 +461,7 @@ def test_undo_after_repair_restores_only_the_other_body(gl, scene):
     assert not carver.undo()
 
 
+@pytest.mark.slow
 def test_controller_undo_repair_and_load(gl, tmp_path):
     """The sandbox through its controller: the first hit of the ball drop undone bit for bit on
     both bodies (the same log as the API); repair gives the scene's pristine maps; a loaded

@@ -12,11 +12,13 @@ import sys
 
 import imageio_ffmpeg
 import numpy as np
+import pytest
 from PIL import Image
 
 from cli_helpers import dentdemo
 
 
+@pytest.mark.slow
 def test_mp4_decodes_to_the_frames_and_size_asked_for(tmp_path):
     out, video = tmp_path / "last.png", tmp_path / "clip.mp4"
     result = dentdemo(
@@ -35,6 +37,7 @@ def test_mp4_decodes_to_the_frames_and_size_asked_for(tmp_path):
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 
+@pytest.mark.slow
 def test_gif_has_every_frame(tmp_path):
     """Streamed frame by frame: every frame, 1/60 s each as GIF rounds it (2 cs), looping, the
     last one the PNG's picture in 256 colours, and no temporary file left."""
@@ -79,6 +82,7 @@ def test_a_gif_frame_stream_reads_back_exactly(tmp_path):
             assert np.array_equal(np.asarray(gif.convert("RGB")), frame)
 
 
+@pytest.mark.slow
 def test_temporary_names_are_unique_and_fit_beside_a_long_name(tmp_path):
     import os
 
@@ -95,6 +99,7 @@ def test_temporary_names_are_unique_and_fit_beside_a_long_name(tmp_path):
     assert long.exists()
 
 
+@pytest.mark.slow
 def test_progress_bar_on_a_terminal(tmp_path):
     main, follower = pty.openpty()
     proc = subprocess.Popen(
