@@ -169,3 +169,17 @@ def size_wxh(text: str) -> tuple[int, int]:
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
         raise argparse.ArgumentTypeError(f"must lie between 16x16 and 8192x8192, got '{text}'")
     return w, h
+
+
+def add_compact_state(parser: argparse.ArgumentParser, saves: str) -> None:
+    """--compact-state [HITS]: saved states as a checkpoint and the hit log since it."""
+    parser.add_argument(
+        "--compact-state",
+        type=int_in(0, 10**9),
+        nargs="?",
+        const=1000,
+        default=None,
+        metavar="HITS",
+        help=f"{saves} a checkpoint and the hit log since it instead of every map (a new"
+        " checkpoint once the log holds HITS hits, 1000 if not given)",
+    )

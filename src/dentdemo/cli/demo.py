@@ -8,13 +8,13 @@ from pathlib import Path
 
 from dentdemo import log
 from dentdemo.cli.args import (
+    add_compact_state,
     add_gltf,
     add_quality,
     add_scene,
     check_gltf,
     command,
     float_in,
-    int_in,
     size_wxh,
 )
 from dentdemo.errors import DentdemoError, GLUnavailableError
@@ -58,16 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "where the G key and the panel's export button write every body (default dentdemo.glb); "
         "with --exit-after, also written when the run ends",
     )
-    p.add_argument(
-        "--compact-state",
-        type=int_in(0, 10**9),
-        nargs="?",
-        const=1000,
-        default=None,
-        metavar="HITS",
-        help="F5 saves a checkpoint and the hit log since it instead of every map (a new"
-        " checkpoint once the log holds HITS hits, 1000 if not given)",
-    )
+    add_compact_state(p, "F5 saves")
     p.add_argument(
         "--hit-log",
         metavar="FILE",

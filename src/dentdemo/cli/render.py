@@ -7,6 +7,7 @@ import re
 from pathlib import Path
 
 from dentdemo.cli.args import (
+    add_compact_state,
     add_gltf,
     add_quality,
     add_scene,
@@ -57,16 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="DIR",
         help="after the last frame, save every body's maps and the physics state to DIR",
     )
-    p.add_argument(
-        "--compact-state",
-        type=int_in(0, 10**9),
-        nargs="?",
-        const=1000,
-        default=None,
-        metavar="HITS",
-        help="--save-state writes a checkpoint and the hit log since it instead of every map"
-        " (a new checkpoint once the log holds HITS hits, 1000 if not given)",
-    )
+    add_compact_state(p, "--save-state writes")
     p.add_argument(
         "--load-state",
         metavar="DIR",
