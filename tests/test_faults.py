@@ -486,3 +486,19 @@ def test_a_resize_storm_cannot_exhaust_the_font_atlas(xvfb, raced):
     got = python_json(_STORM, scene, raced, env=env, timeout=300)
     assert got["scale"] == 4.0
     assert got["atlas"][0] * got["atlas"][1] <= 1024 * 1024, got  # 4096 x 8192 at 100
+
+
+def test_an_output_that_is_a_link_is_written_through_it(tmp_path, monkeypatch, capsys):
+    """A link to a regular file (as /dev/stdout is, redirected to one) is written through: the
+    link stays a link, its target gets the PNG; renaming over the link replaced it with a
+    file (and /dev/stdout with a PNG as root)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "real").mkdir()
+    target = tmp_path / "real" / "r.png"
+    target.write_bytes(b"old")
+    (tmp_path / "link.png").symlink_to(target)
+    assert main([*RENDER, "--out", "link.png"]) == 0
+    assert (tmp_path / "link.png").is_symlink()
+    assert target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.png", "real"]
+    assert sorted(p.name for p in (tmp_path / "real").iterdir()) == ["r.png"]

@@ -121,6 +121,7 @@ def check_output_file(flag: str, path: Path | str, suffixes: tuple[str, ...] = (
     if path.is_dir():
         raise DentdemoError(f"{flag}: '{path}' is a folder, not a file")
     check_regular(flag, path)
+    path = _through_link(path)
     if suffixes and path.suffix.lower() not in suffixes:
         raise DentdemoError(f"{flag}: '{path}' must end in {' or '.join(suffixes)}")
     check_output_dir(flag, path.parent)
@@ -336,8 +337,16 @@ def write_folder(path: Path, files: dict[str, bytes], flag: str = "save") -> Pat
     return path
 
 
+def _through_link(path: Path) -> Path:
+    """Where writing `path` lands: a symbolic link's target (the link stays a link; renaming
+    over the link itself would replace it, /dev/stdout with a file), else `path`."""
+    return Path(os.path.realpath(path)) if path.is_symlink() else path
+
+
 def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
-    """Call `write` on a temporary file beside `path`, then rename it over `path`."""
+    """Call `write` on a temporary file beside `path` (a link's target), then rename it over
+    it."""
+    path = _through_link(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
