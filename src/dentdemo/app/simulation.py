@@ -18,6 +18,7 @@ from dentdemo.app.compact import CompactSaves
 from dentdemo.app.hitlog import HitRecorder
 from dentdemo.app.reshape import DentProxy, proxy_for, shape_field
 from dentdemo.app.shared import Shared
+from dentdemo.app.wear import WearTracker
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, CarverOptions, Press
 from dentdemo.carve.surface import create_maps, load_height_png, map_size_for
@@ -145,6 +146,8 @@ class Simulation:
         #: Set by app/state.py's enable_compact_saves: saves hold a checkpoint and a hit log.
         self.compact_saves: CompactSaves | None = None
         self.world: PhysicsWorld = build_world(scene)
+        #: Scratches (app/wear.py), where the scene's physics wears (wear_scale > 0).
+        self.wear = WearTracker(gl, scene.physics.wear_scale) if scene.physics.wear_scale else None
         for spec in scene.bodies:
             self._add_render_body(spec)
 
@@ -278,6 +281,8 @@ class Simulation:
                 request = self._request(impact)
                 if request is not None:
                     self.queue.append(request)
+            if self.wear is not None:
+                self.wear.observe(self, self.world.slides)
         start = time.perf_counter()
         done = self.apply_queued(self.carve_budget)
         carve_ms = (time.perf_counter() - start) * 1e3
@@ -296,7 +301,8 @@ class Simulation:
         while self.queue and (limit is None or len(taken) < limit):
             taken.append(self.queue.popleft())
         presses = [press for press in map(self._press, taken) if press is not None]
-        if presses:
+        grooves = self.wear.take(self) if self.wear is not None else []
+        if presses or grooves:
             before: dict[str, tuple | None] = {}  # the proxies as they were, for undo
 
             def follow() -> None:  # reads no map: the carve runs it while its gathers are drawn
@@ -319,11 +325,16 @@ class Simulation:
                     self._follow_dents(request)
 
             # One batch: every hit reads the heights from before it (docs/carve.md, "Batches").
-            self.carver.carve_many([press for _, press in presses], meanwhile=follow)
-            for recorder in self.recorders:
-                recorder.batch(self, [request for request, _ in presses])
+            self.carver.carve_many([press for _, press in presses] + grooves, meanwhile=follow)
+            for recorder in list(self.recorders):
+                if grooves:  # a groove's tool is no body of the scene: no hit record holds it
+                    recorder.stop(self, "scratches are not recorded in a hit log")
+                else:
+                    recorder.batch(self, [request for request, _ in presses])
             self.carved_points.extend(request.impact.point for request, _ in presses)
-            self.last_hit = presses[-1][0]
+            self.carved_points.extend(groove.contact.point for groove in grooves)
+            if presses:
+                self.last_hit = presses[-1][0]
             if len(self.undo_log):
                 self._proxy_history.append(before)
             else:  # a batch too large to keep empties the log: nothing before it can be undone
@@ -416,6 +427,8 @@ class Simulation:
         return request, Press(target, tool, contact, request.depth_a, request.depth_b)
 
     def _drop_body(self, body_id: str) -> None:
+        if self.wear is not None:
+            self.wear.forget(body_id)
         self.dents.pop(body_id, None)
         self.proxies.pop(body_id, None)
         body = self.bodies.pop(body_id)
@@ -480,6 +493,8 @@ class Simulation:
         self.dents.clear()
         self.proxies.clear()
         self._proxy_history.clear()
+        if self.wear is not None:
+            self.wear.clear()
         self.stats = SimStats()
         self.ball_count = 0
         self._time_debt = 0.0
@@ -532,6 +547,8 @@ class Simulation:
     def close(self) -> None:
         self.undo_log.release()
         self._release_bodies()
+        if self.wear is not None:
+            self.wear.release()
         self.carver.release()
         self.world.close()
 

@@ -113,6 +113,10 @@ class PhysicsSpec:
     #: Below this approach speed (m/s) a contact is resting, not an impact.
     impact_speed_min: float = 0.1
     solver_iterations: int = 40
+    #: Scratches: sliding contacts wear Archard's volume (V = K F s / H) times this; 0, no wear
+    #: is tracked. 1 is the law as the presets' K and H give it (microns: invisible at a
+    #: sandbox's texels); a scene that shows scratches exaggerates it.
+    wear_scale: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -232,6 +236,7 @@ def _physics(source: str, table: Any) -> PhysicsSpec:
             min_value=1,
             max_value=BOUNDS.solver_iterations,
         ),
+        wear_scale=r.number("wear_scale", d.wear_scale, min_value=0.0, max_value=1e9),
     )
     r.finish()
     return spec

@@ -68,6 +68,8 @@ REQUIRED_SYMBOLS = (
     "dBodyGetMass",
     "dMassAdjust",
     "dBodyGetPointVel",
+    "dJointSetFeedback",
+    "dJointFeedback",
     "dMassSetZero",
     "dMassSetSphere",
     "dMassSetBox",
@@ -204,6 +206,7 @@ class FastCalls:
         self.collide = loadOde("dCollide", i32, vp, vp, i32, vp, i32)
         self.create_contact = loadOde("dJointCreateContact", vp, vp, vp, vp)
         self.attach = loadOde("dJointAttach", None, vp, vp, vp)
+        self.set_feedback = loadOde("dJointSetFeedback", None, vp, vp)
         self.point_vel = loadOde("dBodyGetPointVel", None, vp, ode.dReal, ode.dReal, ode.dReal, vp)
         #: (dBodyID) -> const dReal[3], rad/s.
         self.angular_vel = loadOde("dBodyGetAngularVel", ctypes.POINTER(ode.dReal), vp)

@@ -39,6 +39,9 @@ _CONTACT_MODE = ode.dContactBounce | ode.dContactSoftCFM | ode.dContactApprox1
 _ROLLING_MODE = _CONTACT_MODE | ode.dContactRolling
 #: Below this relative spin, rad/s, the contact frame is ODE's own.
 _SPIN_MIN = 1e-9
+#: Below this slip speed, m/s, a touching pair is not sliding (rolling, resting): its wear is
+#: not tracked. A ball rolling without slip on a plate slips ~1e-6 m/s in ODE's solution.
+SLIP_MIN = 1e-3
 
 
 @dataclass
@@ -93,6 +96,24 @@ class Impact:
             "pose_a": {"position": self.pose_a[0].tolist(), "quaternion": self.pose_a[1].tolist()},
             "pose_b": {"position": self.pose_b[0].tolist(), "quaternion": self.pose_b[1].tolist()},
         }
+
+
+@dataclass
+class Slide:
+    """A touching pair that slid during one step (its substeps together), for wear (PhysicsSpec
+    .wear_scale > 0). As for an Impact the normal points from body A towards body B. `work` is
+    the sum over substeps of the pair's normal force (N, from ODE's joint feedback) times the
+    distance it slipped (m: the relative tangential speed at the deepest contact before the
+    substep times its dt), N*m; Archard's volume is K work / H. `point` (world metres) and
+    `normal` are the deepest contact's at the last substep that slid."""
+
+    body_a: str
+    body_b: str
+    work: float
+    slip: float
+    point: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    depth: float
 
 
 @dataclass
@@ -213,6 +234,13 @@ class PhysicsWorld:
         self._callback_error: BaseException | None = None
         self._vel_buffer = (ode.dReal * 4)()
         self._vel_addr = ctypes.addressof(self._vel_buffer)
+        #: The pairs that slid in the last step, by (body A, body B) (wear tracked only).
+        self.slides: dict[tuple[str, str], Slide] = {}
+        self._wear = spec.wear_scale > 0.0
+        #: Joint feedback records, reused: the sliding contacts of one substep take the first.
+        self._feedback: list = []
+        #: This substep's sliding pairs: (A, B, feedback slice, slip m/s, contact geom fields).
+        self._sliding: list[tuple] = []
 
     # -- bodies --------------------------------------------------------------------------------
     def add_body(self, spec: BodySpec, mesh_arrays: tuple[NDArray, NDArray] | None = None) -> None:
@@ -388,14 +416,18 @@ class PhysicsWorld:
         one per touching pair (the one with the largest j_elastic), sorted by body ids."""
         interrupt.check()
         self._pending = {}
+        self.slides = {}
         sub_dt = self.spec.dt / self.spec.substeps
         for _ in range(self.spec.substeps):
+            self._sliding = []
             fast.space_collide(self._space_addr, None, self._callback)
             if self._callback_error is not None:  # Ctrl-C or a bug inside the callback
                 error, self._callback_error = self._callback_error, None
                 ode.dJointGroupEmpty(self.contact_group)
                 raise error
             ode.dWorldQuickStep(self.world, sub_dt)
+            if self._sliding:
+                self._add_slides(sub_dt)
             ode.dJointGroupEmpty(self.contact_group)
             self.time += sub_dt
         self._drop_non_finite()
@@ -473,6 +505,7 @@ class PhysicsWorld:
         deepest, best = slots[0][1], -math.inf
         world, group, body1, body2 = self._world_addr, self._group_addr, r1.body_addr, r2.body_addr
         spin = self._relative_spin(r1, r2) if rho > 0.0 else None
+        joints = []
         for surface_, geom, fdir1, address in slots:
             surface_.mu = mu  # bounce_vel and soft_cfm are set once (__init__)
             surface_.bounce = bounce
@@ -484,9 +517,71 @@ class PhysicsWorld:
             depth = geom.depth
             if depth > best:
                 deepest, best = geom, depth
-            fast.attach(fast.create_contact(world, group, address), body1, body2)
+            joint = fast.create_contact(world, group, address)
+            fast.attach(joint, body1, body2)
+            joints.append(joint)
+        if self._wear:
+            self._watch_slip(r2, r1, deepest, joints)
         # ODE's normal points into g1: from body A = owner of g2 towards body B = owner of g1.
         self._record(r2, r1, deepest)
+
+    def _watch_slip(self, a: _Body, b: _Body, geom: Handle, joints: list[int]) -> None:
+        """If A and B slip at their deepest contact (relative tangential speed above SLIP_MIN),
+        ask ODE for the force of each of the pair's contact joints this substep."""
+        if a.spec.material.wear_coefficient <= 0 and b.spec.material.wear_coefficient <= 0:
+            return
+        px, py, pz = geom.pos[0], geom.pos[1], geom.pos[2]
+        n = (geom.normal[0], geom.normal[1], geom.normal[2])
+        slip = self._slip_speed(a, b, px, py, pz, n)
+        if slip <= SLIP_MIN:
+            return
+        first = sum(len(entry[2]) for entry in self._sliding)
+        while len(self._feedback) < first + len(joints):
+            self._feedback.append(ode.dJointFeedback())
+        records = self._feedback[first : first + len(joints)]
+        for joint, record in zip(joints, records, strict=True):
+            fast.set_feedback(joint, ctypes.addressof(record))
+        point = np.array([px, py, pz], dtype=np.float64)
+        self._sliding.append((a, b, records, slip, point, np.array(n), float(geom.depth)))
+
+    def _slip_speed(
+        self, a: _Body, b: _Body, x: float, y: float, z: float, n: tuple[float, float, float]
+    ) -> float:
+        """Relative tangential speed of B's and A's material points at world (x, y, z), m/s."""
+        va, vb = self._point_velocity(a, x, y, z), self._point_velocity(b, x, y, z)
+        rel = (vb[0] - va[0], vb[1] - va[1], vb[2] - va[2])
+        along = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]
+        tx, ty, tz = rel[0] - along * n[0], rel[1] - along * n[1], rel[2] - along * n[2]
+        return math.sqrt(tx * tx + ty * ty + tz * tz)
+
+    def _add_slides(self, sub_dt: float) -> None:
+        """This substep's slip of each sliding pair times its normal force (the joints' forces
+        along the normal, ODE's feedback after the step) into the step's `slides`. The slip is
+        the mean of the speeds before and after the substep (the trapezoid rule: a skid's slip
+        speed falls linearly, and the speed before alone overstates it by half a substep's
+        fall)."""
+        for a, b, records, before, point, normal, depth in self._sliding:
+            n = (float(normal[0]), float(normal[1]), float(normal[2]))
+            x, y, z = (float(c) for c in point)
+            slip = 0.5 * (before + self._slip_speed(a, b, x, y, z, n))
+            force = 0.0
+            for record in records:
+                # ODE may swap a joint's bodies (a static first body): either force will do.
+                f1, f2 = record.f1, record.f2
+                along1 = f1[0] * normal[0] + f1[1] * normal[1] + f1[2] * normal[2]
+                along2 = f2[0] * normal[0] + f2[1] * normal[1] + f2[2] * normal[2]
+                force += max(abs(along1), abs(along2))
+            key = (a.spec.id, b.spec.id)
+            distance = slip * sub_dt
+            slide = self.slides.get(key)
+            if slide is None:
+                self.slides[key] = Slide(
+                    a.spec.id, b.spec.id, force * distance, distance, point, normal, depth
+                )
+            else:
+                slide.work += force * distance
+                slide.slip += distance
+                slide.point, slide.normal, slide.depth = point, normal, depth
 
     def _plausible(self, r1: _Body, r2: _Body, slots: list) -> list:
         """The contacts of two triangle meshes that are not ODE's phantoms. Its mesh-mesh

@@ -1,0 +1,229 @@
+"""Scratches in the sandbox: the physics' sliding pairs (physics/world.py's `Slide`: normal force
+times slip, each step) wear Archard's volume V = K F s / H from each body, with its own K and H,
+times the scene's `wear_scale`; the volume builds up per (worn body, tool body) along the tool's
+path over the worn body, and is carved as a groove segment (app/scratch.py's swept tool: a
+sphere swept along the segment is a capsule, pressed square-on by the depth whose cross-section
+times the segment's length is the volume) once the path is SEGMENT_LENGTH long, or when the
+pair stops sliding. A segment shallower than VISIBLE_DEPTH is dropped with its volume: it would
+not show at a sandbox's texels. Pure rolling slips nothing (the physics reports no slide), so it
+wears nothing; a slide that stops ends its groove.
+
+Tools: a sphere (a ball skidding); a box or mesh tool's sliding wears nothing yet (its swept
+solid along an arbitrary path is not a built-in shape). Worn bodies: any dentable body but the
+ground plane."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import CarveBody, Press
+from dentdemo.carve.surface import create_maps, map_size_for
+from dentdemo.gl.context import GLContext
+from dentdemo.gpu.maps import SurfaceMaps
+from dentdemo.gpu.mesh import GpuMesh
+from dentdemo.mesh.shapes import Tessellation, shape_mesh
+from dentdemo.model import wear
+from dentdemo.model.shapes import Capsule, Plane, Sphere
+
+if TYPE_CHECKING:
+    from dentdemo.app.simulation import Simulation
+    from dentdemo.physics.world import Slide
+
+#: A groove segment is carved once the tool has travelled this far over the worn body, m.
+SEGMENT_LENGTH = 0.03
+#: Shallower segments are dropped, m: 10 um is about a thousandth of a sandbox's 1 cm ball's
+#: radius; at 1 mm texels its groove (half-width sqrt(2 R d)) spans a few texels.
+VISIBLE_DEPTH = 1e-5
+#: Swept tools are made per length rounded to this, m (the capsule's length is the segment's).
+LENGTH_STEP = 1e-3
+#: The swept tool's map side at most, texels (only its pitch matters: the carve's pixels grow
+#: to one of its texels).
+TOOL_MAP_MAX = 1024
+
+
+@dataclass
+class _Track:
+    """The path of a tool over a worn body since its groove's last segment: the contact point at
+    its start and now, and the contact's outward normal now, all in the worn body's local frame
+    (metres), and the volume worn meanwhile, m^3."""
+
+    start: NDArray[np.float64]
+    end: NDArray[np.float64]
+    point: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    volume: float = 0.0
+
+
+@dataclass(frozen=True)
+class Groove:
+    """One segment to carve: `worn` pressed by `tool`'s sphere swept from `start` to `end`."""
+
+    worn: str
+    tool: str
+    radius: float
+    track: _Track
+    depth: float
+
+
+class WearTracker:
+    """Per (worn body, tool body), the volume worn along the tool's path; grooves waiting for
+    the next carve batch in `pending`."""
+
+    def __init__(self, gl: GLContext, scale: float) -> None:
+        self.gl = gl
+        self.scale = scale
+        self.tracks: dict[tuple[str, str], _Track] = {}
+        self.pending: list[Groove] = []
+        #: Volume worn per body so far (before VISIBLE_DEPTH drops any), m^3.
+        self.worn: dict[str, float] = {}
+        self._tools: dict[tuple[float, float, float], tuple[GpuMesh, SurfaceMaps]] = {}
+
+    def observe(self, sim: Simulation, slides: dict[tuple[str, str], Slide]) -> None:
+        """One physics step's slides: wear builds up along each path; a path long enough, or
+        one whose slide stopped, becomes a groove segment in `pending`."""
+        sliding = set()
+        for slide in slides.values():
+            for worn, tool, outward in (
+                (slide.body_a, slide.body_b, slide.normal),
+                (slide.body_b, slide.body_a, -slide.normal),
+            ):
+                if self._wears(sim, worn, tool):
+                    sliding.add((worn, tool))
+                    self._add(sim, worn, tool, slide, outward)
+        for key in [k for k in self.tracks if k not in sliding]:
+            self._close(sim, key, self.tracks.pop(key))
+
+    def _wears(self, sim: Simulation, worn: str, tool: str) -> bool:
+        body, other = sim.bodies.get(worn), sim.bodies.get(tool)
+        return (
+            body is not None
+            and other is not None
+            and body.spec.dentable
+            and not isinstance(body.spec.shape, Plane)
+            and body.spec.material.wear_coefficient > 0
+            and isinstance(other.spec.shape, Sphere)
+        )
+
+    def _add(
+        self, sim: Simulation, worn: str, tool: str, slide: Slide, outward: NDArray[np.float64]
+    ) -> None:
+        material = sim.bodies[worn].spec.material
+        volume = self.scale * material.wear_coefficient * slide.work / material.hardness
+        self.worn[worn] = self.worn.get(worn, 0.0) + volume
+        inverse = np.asarray(np.linalg.inv(sim.model(worn)), dtype=np.float64)
+        # The contact point at the step's last sliding substep (before its motion): where the
+        # slide was when it stopped, not where the tool rolled on to by the step's end.
+        point = (inverse @ np.append(slide.point, 1.0))[:3]
+        normal = inverse[:3, :3] @ outward
+        normal /= np.linalg.norm(normal)
+        track = self.tracks.get((worn, tool))
+        if track is None:  # the slide began during this step: its path from the step's start
+            physics = sim.scene.physics
+            before = physics.dt * (1.0 - 1.0 / physics.substeps)
+            began = point - _relative_velocity(sim, worn, tool, inverse) * before
+            track = _Track(began, point, point, normal, volume)
+            self.tracks[(worn, tool)] = track
+        else:
+            track.end, track.point, track.normal = point, point, normal
+            track.volume += volume
+        if _length(track) >= SEGMENT_LENGTH:
+            self._close(sim, (worn, tool), track)
+            self.tracks[(worn, tool)] = _Track(point, point, point, normal)
+
+    def _close(self, sim: Simulation, key: tuple[str, str], track: _Track) -> None:
+        """The segment of `track` into `pending` if it is long and deep enough."""
+        tool = sim.bodies.get(key[1])
+        length = _length(track)
+        if tool is None or length < LENGTH_STEP or track.volume <= 0:
+            return
+        radius = tool.spec.shape.radius  # type: ignore[union-attr]
+        depth = wear.sphere_groove_depth(radius, track.volume / length)
+        if depth >= VISIBLE_DEPTH:
+            self.pending.append(Groove(key[0], key[1], radius, track, depth))
+
+    def take(self, sim: Simulation) -> list[Press]:
+        """The pending grooves as presses (their worn body posed as it is now), and none left."""
+        presses = []
+        for groove in self.pending:
+            body = sim.bodies.get(groove.worn)
+            if body is None:
+                continue
+            model = sim.model(groove.worn)
+            presses.append(self._press(body.gpu_mesh, body.maps, model, groove))
+        self.pending = []
+        return presses
+
+    def _press(
+        self, gpu: GpuMesh, maps: SurfaceMaps, model: NDArray[np.float64], groove: Groove
+    ) -> Press:
+        track, r = groove.track, groove.radius
+        n = track.normal
+        # The path in the contact's plane, the swept sphere's axis R above it (first touch).
+        start = track.start - ((track.start - track.point) @ n) * n
+        end = track.end - ((track.end - track.point) @ n) * n
+        along = end - start
+        length = float(np.linalg.norm(along))
+        direction = along / length
+        rounded = max(LENGTH_STEP, round(length / LENGTH_STEP) * LENGTH_STEP)
+        tool_gpu, tool_maps = self._tool(r, rounded, min(maps.texel_metres))
+        local = np.eye(4)
+        local[:3, :3] = np.column_stack([np.cross(n, direction), n, direction])
+        local[:3, 3] = (start + end) / 2 + n * r
+        mid = model @ np.append((start + end) / 2, 1.0)
+        press_in = -(model[:3, :3] @ n)
+        contact = ContactFrame(mid[:3], press_in / np.linalg.norm(press_in))
+        target = CarveBody(gpu, maps, model)
+        return Press(target, CarveBody(tool_gpu, tool_maps, model @ local), contact, groove.depth)
+
+    def _tool(self, radius: float, length: float, texel: float) -> tuple[GpuMesh, SurfaceMaps]:
+        """The capsule swept by a sphere of `radius` along `length`, its texels no coarser than
+        `texel` (up to TOOL_MAP_MAX); made once per size."""
+        key = (radius, length, texel)
+        held = self._tools.get(key)
+        if held is None:
+            mesh = shape_mesh(Capsule(radius, length), Tessellation())
+            gpu = GpuMesh(self.gl, mesh)
+            side = map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX)
+            held = (gpu, create_maps(self.gl, gpu, side, 0.0))
+            self._tools[key] = held
+        return held
+
+    def forget(self, body_id: str) -> None:
+        """A body is gone: its tracks and pending grooves with it."""
+        self.tracks = {k: t for k, t in self.tracks.items() if body_id not in k}
+        self.pending = [g for g in self.pending if body_id not in (g.worn, g.tool)]
+
+    def clear(self) -> None:
+        self.tracks.clear()
+        self.pending = []
+        self.worn.clear()
+
+    def release(self) -> None:
+        for gpu, maps in self._tools.values():
+            maps.release()
+            gpu.release()
+        self._tools.clear()
+
+
+def _relative_velocity(
+    sim: Simulation, worn: str, tool: str, inverse: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The tool's centre's velocity in the worn body's frame, m/s (local axes): the contact
+    point's too, for a sphere sliding over a face."""
+    worn_v, worn_w = sim.world.velocity(worn)
+    tool_v, _ = sim.world.velocity(tool)
+    offset = sim.model(tool)[:3, 3] - sim.model(worn)[:3, 3]
+    return inverse[:3, :3] @ (tool_v - worn_v - np.cross(worn_w, offset))
+
+
+def _length(track: _Track) -> float:
+    """How far the contact moved in the worn body's tangent plane, m."""
+    along = track.end - track.start
+    across = float(along @ track.normal)
+    return math.sqrt(max(float(along @ along) - across * across, 0.0))

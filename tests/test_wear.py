@@ -1,0 +1,177 @@
+"""Wear from the physics (issue 44): each step, a sliding pair's normal force (ODE's joint
+feedback) times its slip; held to a ball's skid in closed form, and to pure rolling's zero."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from dentdemo.model.materials import load_materials
+from dentdemo.model.scene import load_scene
+from dentdemo.physics.simulate import build_world
+from scene_text import ball, plate, steel_like
+
+G = 9.81
+RADIUS = 0.04  # m
+MU = 0.5
+WEARING = steel_like("worn", 0.01, "wear_coefficient = 1e-3\nhardness_Pa = 1e9\n")
+PHYSICS = "[physics]\ngravity = [0.0, -9.81, 0.0]\nwear_scale = {scale}\n"
+
+
+def _world(tmp_path, scale: float = 1.0):
+    materials = tmp_path / "m.toml"
+    materials.write_text(WEARING)
+    scene_path = tmp_path / "s.toml"
+    position = f"[0.0, {0.02 + RADIUS}, 0.0]"
+    scene_path.write_text(
+        "\n".join([PHYSICS.format(scale=scale), plate("worn", side=4.0), ball("worn", position)])
+    )
+    return build_world(load_scene(scene_path, load_materials([materials])))
+
+
+def _settled(world):
+    for _ in range(10):  # onto the plate first
+        world.step()
+    return world
+
+
+@pytest.mark.parametrize("speed", [1.0, 2.0])
+def test_a_skidding_ball_slips_v0_squared_over_7_mu_g(tmp_path, speed):
+    """A ball thrown along +x without spin skids until it rolls: its slip speed v0 - 7/2 mu g t
+    falls to 0 at t = 2 v0 / (7 mu g), over a slip of v0^2 / (7 mu g), all under its weight
+    m g; then it rolls and slips no more."""
+    world = _settled(_world(tmp_path))
+    try:
+        world.set_velocity("ball", (speed, 0.0, 0.0), (0.0, 0.0, 0.0))
+        mass = world.bodies["ball"].mass
+        slip = work = 0.0
+        rolled_at = None
+        for step in range(round(1.0 / world.spec.dt)):
+            world.step()
+            slide = world.slides.get(("plate", "ball"))
+            if slide is None:
+                rolled_at = rolled_at if rolled_at is not None else step
+                continue
+            assert rolled_at is None, "it slid again after rolling"
+            slip += slide.slip
+            work += slide.work
+            assert slide.normal == pytest.approx([0.0, 1.0, 0.0], abs=1e-6)
+        expected = speed**2 / (7 * MU * G)
+        assert slip == pytest.approx(expected, rel=0.03)
+        assert work == pytest.approx(mass * G * expected, rel=0.03)
+        assert rolled_at is not None
+        assert rolled_at * world.spec.dt == pytest.approx(2 * speed / (7 * MU * G), abs=0.04)
+    finally:
+        world.close()
+
+
+def test_a_ball_rolling_without_slip_slides_nowhere(tmp_path):
+    world = _settled(_world(tmp_path))
+    try:
+        v = 1.0
+        world.set_velocity("ball", (v, 0.0, 0.0), (0.0, 0.0, -v / RADIUS))
+        for _ in range(60):
+            world.step()
+            assert not world.slides
+        assert np.linalg.norm(world.velocity("ball")[0]) == pytest.approx(v, rel=0.01)
+    finally:
+        world.close()
+
+
+def test_without_wear_scale_nothing_is_tracked(tmp_path):
+    world = _settled(_world(tmp_path, scale=0.0))
+    try:
+        world.set_velocity("ball", (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        world.step()
+        assert not world.slides and not world._feedback
+    finally:
+        world.close()
+
+
+def test_the_physics_wear_scale_is_validated(tmp_path):
+    from dentdemo.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="wear_scale"):
+        _world(tmp_path, scale=-1.0)
+    assert math.isfinite(load_materials().get("steel").hardness)
+
+
+def _sandbox(gl, tmp_path, scale: float):
+    from dentdemo.app.simulation import Simulation
+
+    materials = tmp_path / "m.toml"
+    materials.write_text(WEARING)
+    scene_path = tmp_path / "s.toml"
+    position = f"[-0.3, {0.02 + RADIUS}, 0.0]"
+    scene_path.write_text(
+        "\n".join(
+            [
+                PHYSICS.format(scale=scale),
+                plate("worn", side=1.0, texels=1024),
+                ball("worn", position, texels=256),
+            ]
+        )
+    )
+    lib = load_materials([materials])
+    return Simulation(gl, load_scene(scene_path, lib), lib)
+
+
+def _plate_heights(sim) -> np.ndarray:
+    return sim.gl.read(sim.bodies["plate"].maps.height)[:, :, 0].astype(np.float64)
+
+
+@pytest.mark.parametrize("speed", [1.5, 2.0])
+def test_a_skidding_ball_scratches_archards_volume_until_it_rolls(gl, tmp_path, speed):
+    """Thrown along +x without spin, a ball wears the plate K (m g) v0^2 / (7 mu g) / H times
+    the scene's scale while it skids (its slip, in closed form), along the path it travels
+    until it rolls: v0 t - mu g t^2 / 2 at t = 2 v0 / (7 mu g); then nothing more."""
+    scale = 1e5
+    sim = _sandbox(gl, tmp_path, scale)
+    try:
+        for _ in range(10):
+            sim.step()
+        before = _plate_heights(sim)
+        sim.world.set_velocity("ball", (speed, 0.0, 0.0), (0.0, 0.0, 0.0))
+        start_x = sim.world.pose("ball")[0][0]
+        for _ in range(90):
+            sim.step()
+        sim.apply_queued()
+        after = _plate_heights(sim)
+        mass = sim.world.bodies["ball"].mass
+        texel = 1.0 / after.shape[0]
+        worn = -(after - before).sum() * texel * texel
+        expected = scale * 1e-3 * mass * G * speed**2 / (7 * MU * G) / 1e9
+        assert sim.wear is not None
+        assert sim.wear.worn["plate"] == pytest.approx(expected, rel=0.03)
+        # Carved: the segments' grooves plus their end caps (a few per cent of the whole).
+        assert worn == pytest.approx(expected, rel=0.1)
+        t_roll = 2 * speed / (7 * MU * G)
+        end_x = start_x + speed * t_roll - MU * G * t_roll**2 / 2
+        cols = np.nonzero((after - before < 0).any(axis=0))[0]
+        x = (cols + 0.5) * texel - 0.5  # the plate's u runs along +x, centred at x = 0
+        assert x.min() == pytest.approx(start_x, abs=0.01)
+        deepest = -(after - before).min()
+        cap = math.sqrt(2 * RADIUS * deepest)  # the groove's last end cap reaches past its end
+        assert x.max() < end_x + cap + 2 * texel  # the groove stops where the slide did
+        assert x.max() > end_x - 2 * 0.03  # within two segments of it
+    finally:
+        sim.close()
+
+
+def test_a_rolling_ball_leaves_no_scratch(gl, tmp_path):
+    sim = _sandbox(gl, tmp_path, 1e5)
+    try:
+        for _ in range(10):
+            sim.step()
+        before = _plate_heights(sim)
+        v = 1.5
+        sim.world.set_velocity("ball", (v, 0.0, 0.0), (0.0, 0.0, -v / RADIUS))
+        for _ in range(40):
+            sim.step()
+        sim.apply_queued()
+        assert (_plate_heights(sim) == before).all()
+        assert sim.wear is not None and not sim.wear.worn
+    finally:
+        sim.close()
