@@ -41,9 +41,16 @@ class TexelDraw(IntEnum):
 
 
 class _Group:
-    """A few uniforms declared together; fields left None are not set by this draw."""
+    """A few uniforms declared together; fields left None are not set by this draw (only a
+    group with `OPTIONAL` fields has any)."""
+
+    OPTIONAL: ClassVar[bool] = False
 
     def values(self) -> dict[str, object]:
+        """The uniforms by name (to be read, not changed: a group without optional fields
+        gives its own field dict)."""
+        if not self.OPTIONAL:
+            return vars(self)
         return {name: value for name, value in vars(self).items() if value is not None}
 
 
@@ -79,6 +86,8 @@ class Swept(_Group):
     """swept.glsl (a built-in sphere or capsule's own solid, world metres), cube_grid.glsl (a
     sphere's cells: RECT draws), capsule_uv.glsl (a capsule's atlas)."""
 
+    OPTIONAL: ClassVar[bool] = True
+
     u_swept_a: Vec3
     u_swept_b: Vec3
     u_swept_radius: float
@@ -102,6 +111,8 @@ class Advance(_Group):
 @dataclass(frozen=True)
 class Clip(_Group):
     """clip.glsl: the texels kept (all, or those in the camera's rectangle and a slab)."""
+
+    OPTIONAL: ClassVar[bool] = True
 
     u_clip: bool
     u_map_size: IVec2
