@@ -11,8 +11,8 @@
 // (cos = cos(normal, -forward)), or where the moved point's view line leaves the tool's outline,
 // found from the view-line estimate at the point's own pixel (exact, and no search, when the
 // normal is the press direction) by a march and false position (exit.glsl). h = -a. It does not
-// depend on the old height, so an identical press writes identical values; blending MIN keeps the deeper of old and
-// new (dents only deepen, presses are idempotent).
+// depend on the old height, so an identical press writes identical values; blending MIN keeps the
+// deeper of old and new (dents only deepen, presses are idempotent).
 #ifndef EXIT
 #define EXIT 1
 #endif
