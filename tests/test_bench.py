@@ -87,6 +87,10 @@ def test_bench_tiny_json_schema(gl, tmp_path):
         assert b["cpu_ms_per_hit"] is None or b["cpu_ms_per_hit"] > 0
         parts = b["plan_ms_per_hit"] + b["submit_ms_per_hit"] + b["wait_ms_per_hit"]
         assert 0 < parts
+        # The main thread's CPU time of planning and submission: some, and no more than their
+        # wall time (it cannot run longer than it waits; a millisecond for the clocks' grain).
+        cpu = b["main_thread_ms_per_hit"] * b["hits"]
+        assert 0 < cpu <= (b["plan_ms_per_hit"] + b["submit_ms_per_hit"]) * b["hits"] + 1.0
         # A batch's GL calls, counted in a process of their own: a burst makes some.
         assert isinstance(b["gl_calls_per_batch"], int) and b["gl_calls_per_batch"] > 0
     assert "batched ms/hit" in result.stdout

@@ -39,17 +39,20 @@ def print_table(r: dict) -> None:
     if bursts:
         print(
             f"{'burst':>6} {'map':>6} {'batched ms/hit':>15} {'(plan':>7} {'submit':>7} "
-            f"{'wait)':>7} {'one by one':>11} {'CPU path':>9} {'GL calls':>9}  (amortised per hit;"
-            " GL calls a batch)"
+            f"{'wait)':>7} {'main CPU':>9} {'one by one':>11} {'CPU path':>9} {'GL calls':>9}"
+            "  (amortised per hit; main CPU: the main thread's; GL calls a batch)"
         )
         for b in bursts:
             cpu = f"{b['cpu_ms_per_hit']:9.2f}" if b["cpu_ms_per_hit"] is not None else f"{'-':>9}"
+            thread = b.get("main_thread_ms_per_hit")
+            main = f"{thread:.3f}" if thread is not None else "-"
             calls = b.get("gl_calls_per_batch")
             counted = f"{calls:>9}" if calls is not None else f"{'-':>9}"
             print(
                 f"{b['hits']:>6} {b['map_size']:>5}² {b['gpu_ms_per_hit']:15.3f} "
                 f"{b['plan_ms_per_hit']:7.3f} {b['submit_ms_per_hit']:7.3f} "
-                f"{b['wait_ms_per_hit']:7.3f} {b['serial_ms_per_hit']:11.3f} {cpu} {counted}"
+                f"{b['wait_ms_per_hit']:7.3f} {main:>9} {b['serial_ms_per_hit']:11.3f} {cpu} "
+                f"{counted}"
             )
     same = r.get("same_dent", [])
     if same:

@@ -182,14 +182,15 @@ def burst(
         for hits in BURSTS:
             interrupt.check()
             presses = _burst_presses(setup, hits)
-            split: dict[str, list[float]] = {"plan": [], "submit": [], "wait": []}
+            split: dict[str, list[float]] = {"plan": [], "submit": [], "wait": [], "cpu": []}
 
             def batched(presses=presses, split=split) -> None:
-                start = time.perf_counter()
+                start, cpu = time.perf_counter(), time.thread_time()
                 planned = carver.plan_many(presses)
                 planning = time.perf_counter()
                 carver.carve_hits(planned)
                 submitted = time.perf_counter()
+                split["cpu"].append((time.thread_time() - cpu) * 1e3)
                 finish()
                 done = time.perf_counter()
                 split["plan"].append((planning - start) * 1e3)
@@ -219,6 +220,10 @@ def burst(
                 "plan_ms_per_hit": statistics.median(split["plan"]) / hits,
                 "submit_ms_per_hit": statistics.median(split["submit"]) / hits,
                 "wait_ms_per_hit": statistics.median(split["wait"]) / hits,
+                # The main thread's CPU time of planning and submission (no waits): what the
+                # interpreter and the driver's work on that thread cost, steadier than the wall
+                # time on a loaded machine.
+                "main_thread_ms_per_hit": statistics.median(split["cpu"]) / hits,
                 "gl_calls_per_batch": calls.get((size, hits)),
             }
             rows.append(row)
