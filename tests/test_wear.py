@@ -175,3 +175,27 @@ def test_a_rolling_ball_leaves_no_scratch(gl, tmp_path):
         assert sim.wear is not None and not sim.wear.worn
     finally:
         sim.close()
+
+
+def test_a_scratch_is_undone_with_its_batch_and_bounded_by_the_map(gl, tmp_path):
+    """Grooves go through the frame's carve batch: undo takes a frame's groove back bit for bit,
+    and a groove deeper than the material's max_dent_depth_m (0.01 m here) stops there."""
+    sim = _sandbox(gl, tmp_path, 1e9)  # absurd wear: every segment as deep as allowed
+    try:
+        for _ in range(10):
+            sim.step()
+        sim.world.set_velocity("ball", (1.5, 0.0, 0.0), (0.0, 0.0, 0.0))
+        before = _plate_heights(sim)
+        undone = False
+        for _ in range(30):
+            sim.step()
+            after = _plate_heights(sim)
+            if not undone and (after != before).any():
+                assert sim.undo()
+                assert (_plate_heights(sim) == before).all()
+                undone = True
+            before = _plate_heights(sim)
+        assert undone, "no groove was carved"
+        assert before.min() == pytest.approx(-0.01, rel=1e-6)
+    finally:
+        sim.close()

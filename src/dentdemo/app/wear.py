@@ -27,6 +27,7 @@ from dentdemo.carve.surface import create_maps, map_size_for
 from dentdemo.gl.context import GLContext
 from dentdemo.gpu.maps import SurfaceMaps
 from dentdemo.gpu.mesh import GpuMesh
+from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.model import wear
 from dentdemo.model.shapes import Capsule, Plane, Sphere
@@ -40,8 +41,9 @@ SEGMENT_LENGTH = 0.03
 #: Shallower segments are dropped, m: 10 um is about a thousandth of a sandbox's 1 cm ball's
 #: radius; at 1 mm texels its groove (half-width sqrt(2 R d)) spans a few texels.
 VISIBLE_DEPTH = 1e-5
-#: Swept tools are made per length rounded to this, m (the capsule's length is the segment's).
-LENGTH_STEP = 1e-3
+#: Swept tools are made per length rounded to this, m, and kept (a capsule of the rounded
+#: length centred on the segment, pressed to the depth that wears the segment's volume over it).
+LENGTH_STEP = 5e-3
 #: The swept tool's map side at most, texels (only its pitch matters: the carve's pixels grow
 #: to one of its texels).
 TOOL_MAP_MAX = 1024
@@ -82,7 +84,10 @@ class WearTracker:
         self.pending: list[Groove] = []
         #: Volume worn per body so far (before VISIBLE_DEPTH drops any), m^3.
         self.worn: dict[str, float] = {}
+        #: Groove segments handed to the carve so far.
+        self.carved = 0
         self._tools: dict[tuple[float, float, float], tuple[GpuMesh, SurfaceMaps]] = {}
+        self._meshes: dict[tuple[float, float], Mesh] = {}
 
     def observe(self, sim: Simulation, slides: dict[tuple[str, str], Slide]) -> None:
         """One physics step's slides: wear builds up along each path; a path long enough, or
@@ -157,6 +162,7 @@ class WearTracker:
             model = sim.model(groove.worn)
             presses.append(self._press(body.gpu_mesh, body.maps, model, groove))
         self.pending = []
+        self.carved += len(presses)
         return presses
 
     def _press(
@@ -171,6 +177,7 @@ class WearTracker:
         length = float(np.linalg.norm(along))
         direction = along / length
         rounded = max(LENGTH_STEP, round(length / LENGTH_STEP) * LENGTH_STEP)
+        depth = wear.sphere_groove_depth(r, track.volume / rounded)
         tool_gpu, tool_maps = self._tool(r, rounded, min(maps.texel_metres))
         local = np.eye(4)
         local[:3, :3] = np.column_stack([np.cross(n, direction), n, direction])
@@ -179,17 +186,22 @@ class WearTracker:
         press_in = -(model[:3, :3] @ n)
         contact = ContactFrame(mid[:3], press_in / np.linalg.norm(press_in))
         target = CarveBody(gpu, maps, model)
-        return Press(target, CarveBody(tool_gpu, tool_maps, model @ local), contact, groove.depth)
+        return Press(target, CarveBody(tool_gpu, tool_maps, model @ local), contact, depth)
 
     def _tool(self, radius: float, length: float, texel: float) -> tuple[GpuMesh, SurfaceMaps]:
         """The capsule swept by a sphere of `radius` along `length`, its texels no coarser than
-        `texel` (up to TOOL_MAP_MAX); made once per size."""
-        key = (radius, length, texel)
+        `texel` (a power-of-two map side, up to TOOL_MAP_MAX); made once per size."""
+        mesh = self._meshes.get((radius, length))
+        if mesh is None:
+            mesh = self._meshes[(radius, length)] = shape_mesh(
+                Capsule(radius, length), Tessellation()
+            )
+        side = map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX)
+        side = min(1 << (side - 1).bit_length(), TOOL_MAP_MAX)
+        key = (radius, length, float(side))
         held = self._tools.get(key)
         if held is None:
-            mesh = shape_mesh(Capsule(radius, length), Tessellation())
             gpu = GpuMesh(self.gl, mesh)
-            side = map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX)
             held = (gpu, create_maps(self.gl, gpu, side, 0.0))
             self._tools[key] = held
         return held
@@ -209,6 +221,7 @@ class WearTracker:
             maps.release()
             gpu.release()
         self._tools.clear()
+        self._meshes.clear()
 
 
 def _relative_velocity(

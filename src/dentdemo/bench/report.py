@@ -93,6 +93,14 @@ def print_table(r: dict) -> None:
                 for key, width in parts
             )
         )
+    if r.get("scratches"):
+        sc = r["scratches"]
+        print(
+            f"{'scratches':>9}: {sc['bodies']} bodies, frame ms {sc['frame_ms_without']:.1f} "
+            f"without, {sc['frame_ms_with']:.1f} with (ratio {sc['ratio']:.3f}; wear_scale "
+            f"{sc['wear_scale']:g}, {sc['grooves']} grooves; medians of {sc['frames']} frames "
+            "each, the two sandboxes stepped in turn)"
+        )
     if r.get("window"):
         size = "x".join(str(v) for v in r["window"][0]["size"])
         print(

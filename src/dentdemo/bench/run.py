@@ -356,6 +356,7 @@ def frame_times(
     frames: int,
     size=(1280, 720),
     tick: Callable[[], object] = lambda: None,
+    wear_scale: float = 0.0,
 ) -> list[dict]:
     """Sandbox frames through the frame loop (physics step, carves, render at `size`) with N
     bodies dropped on plates; each phase ends with glFinish so that its time is its own. Besides
@@ -363,16 +364,11 @@ def frame_times(
     that, per hit, the planning's (pass 1, `Carver.plan_many`, on the CPU), the undo
     snapshots' (`UndoLog.record`) and the collision proxies' presses (app/reshape.py,
     `Simulation._follow_dents`): the last two came after the release issue 20 measures against
-    (b498167), which did neither, so a comparison with it can leave them out."""
-    from dentdemo.app.controller import DemoController
-    from dentdemo.app.loop import FrameLoop, ImageBackend
-
-    scene, materials = _ball_drop()
+    (b498167), which did neither, so a comparison with it can leave them out. `wear_scale`:
+    the scene's physics wears (scratches, app/wear.py) at that scale."""
     out = []
     for count in body_counts:
-        app = DemoController(gl, scene, materials, size)
-        drop_balls(app, count)
-        loop = FrameLoop(app, ImageBackend(size, None), fixed_dt=True)
+        app, loop = _sandbox(gl, count, size, wear_scale)
         hits_before = app.sim.stats.hits
         planning = _clock(app.sim.carver, "plan_many")
         undo = _clock(app.sim.undo_log, "record")
@@ -398,6 +394,7 @@ def frame_times(
                 "plan_ms_per_hit": planning[0] * 1e3 / hits if hits else None,
                 "undo_ms_per_hit": undo[0] * 1e3 / hits if hits else None,
                 "proxies_ms_per_hit": proxies[0] * 1e3 / hits if hits else None,
+                "grooves": app.sim.wear.carved if app.sim.wear is not None else 0,
             }
         )
         app.close()
@@ -488,12 +485,56 @@ def memory(gl: GLContext) -> dict:
     }
 
 
+def _sandbox(gl: GLContext, count: int, size: tuple[int, int], wear_scale: float = 0.0):
+    """The ball-drop sandbox with `count` bodies (its physics wearing at `wear_scale`) and its
+    frame loop, headless at `size`."""
+    from dataclasses import replace
+
+    from dentdemo.app.controller import DemoController
+    from dentdemo.app.loop import FrameLoop, ImageBackend
+
+    scene, materials = _ball_drop()
+    scene = replace(scene, physics=replace(scene.physics, wear_scale=wear_scale))
+    app = DemoController(gl, scene, materials, size)
+    drop_balls(app, count)
+    return app, FrameLoop(app, ImageBackend(size, None), fixed_dt=True)
+
+
+#: The scratch comparison's wear scale: scrape.toml's.
+SCRATCH_WEAR_SCALE = 1e6
+
+
+def scratch_frames(gl: GLContext, count: int, frames: int, size=(1280, 720)) -> dict:
+    """The sandbox of `count` bodies without and with scratches (wear_scale
+    SCRATCH_WEAR_SCALE), two of them in this process stepped frame by frame in turn, so that
+    both see the same load: each one's median frame time, their ratio, and the grooves the
+    one with scratches carved."""
+    runs = [_sandbox(gl, count, size, scale) for scale in (0.0, SCRATCH_WEAR_SCALE)]
+    times: list[list[float]] = [[], []]
+    for _ in range(frames):
+        for (_, loop), into in zip(runs, times, strict=True):
+            into.append(loop.frame(measure=True).total_ms)
+    wear = runs[1][0].sim.wear
+    for app, _ in runs:
+        app.close()
+    without, with_ = statistics.median(times[0]), statistics.median(times[1])
+    return {
+        "bodies": count,
+        "frames": frames,
+        "wear_scale": SCRATCH_WEAR_SCALE,
+        "frame_ms_without": without,
+        "frame_ms_with": with_,
+        "ratio": with_ / without,
+        "grooves": wear.carved if wear is not None else 0,
+    }
+
+
 def run_bench(mode: str, window: bool = False, frames: int | None = None) -> dict:
     """The bench in `mode`; with `window`, the interactive window's frame rates too (a display
     is needed: the caller checks); `frames` replaces the mode's count of sandbox frames."""
     cfg = MODES[mode]
     win = cfg["window"]
-    stages = 2 * len(cfg["sizes"]) + 1 + len(cfg["bodies"])
+    stages = 2 * len(cfg["sizes"]) + 2 + len(cfg["bodies"])
     if window:
         stages += len(win["presets"]) * len(win["bodies"])
     start = time.perf_counter()
@@ -511,6 +552,8 @@ def run_bench(mode: str, window: bool = False, frames: int | None = None) -> dic
         same = same_dent(gl, cfg["same_dent"], cfg["reps"])
         tick()
         sandbox = frame_times(gl, cfg["bodies"], frames or cfg["frames"], tick=tick)
+        scratches = scratch_frames(gl, cfg["bodies"][0], frames or cfg["frames"])
+        tick()
         if bar is not None:
             bar.close()
         result = {
@@ -530,6 +573,7 @@ def run_bench(mode: str, window: bool = False, frames: int | None = None) -> dic
             "same_dent": same,
             "passes": passes,
             "frames": sandbox,
+            "scratches": scratches,
             "window": windows,
             "memory": memory(gl),
             "agreement": agreement,
