@@ -28,8 +28,9 @@ def camera() -> OrbitCamera:
     return OrbitCamera.from_eye(eye, np.zeros(3), 35.0)
 
 
-def footprint_mask(cam: OrbitCamera, size=SIZE) -> np.ndarray:
-    """Pixels whose centre sees a plate point inside the dent's disc (ray-plane intersection)."""
+def footprint_mask(cam: OrbitCamera, size=SIZE, depth: float = DEPTH) -> np.ndarray:
+    """Pixels whose centre sees a plate point inside the disc where the ball's cap is deeper
+    than DEPTH - `depth` (the dent's whole disc by default; ray-plane intersection)."""
     w, h = size
     ys, xs = np.mgrid[0:h, 0:w] + 0.5
     ndc_x, ndc_y = xs / w * 2 - 1, 1 - ys / h * 2
@@ -39,12 +40,14 @@ def footprint_mask(cam: OrbitCamera, size=SIZE) -> np.ndarray:
     a, b = near[..., :3] / near[..., 3:], far[..., :3] / far[..., 3:]
     t = -a[..., 1] / (b[..., 1] - a[..., 1])
     hit = a + t[..., None] * (b - a)
-    r = math.sqrt(2 * RADIUS * DEPTH - DEPTH**2)
+    r = math.sqrt(2 * RADIUS * depth - depth**2)
     return np.hypot(hit[..., 0], hit[..., 2]) < r
 
 
-def render_closeup(gl, dented: bool, options: RenderOptions | None = None, **renderer_kw):
-    """The close-up as uint8 [rows top-down, cols, 3]."""
+def render_closeup(
+    gl, dented: bool, options: RenderOptions | None = None, look=ALUMINIUM, **renderer_kw
+):
+    """The close-up as uint8 [rows top-down, cols, 3], the plate drawn with `look`."""
     setup = make_setup(gl, Plate(0.5), Sphere(RADIUS), 2048, 256, max_dent_depth=0.015)
     try:
         if dented:
@@ -55,7 +58,7 @@ def render_closeup(gl, dented: bool, options: RenderOptions | None = None, **ren
             carver.release()
         renderer = Renderer(gl, SIZE, **renderer_kw)
         frame = FrameDescription(
-            [DrawItem(setup.target.gpu_mesh, np.eye(4), ALUMINIUM, setup.target.maps)],
+            [DrawItem(setup.target.gpu_mesh, np.eye(4), look, setup.target.maps)],
             camera(),
             LightSpec(),
             options or RenderOptions(),

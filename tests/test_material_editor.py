@@ -67,6 +67,9 @@ def test_the_editor_shows_the_validators_ranges():
         "hardness_Pa": "[1000, 3e+11]",
         "metalness": "[0, 1]",
         "roughness": "[0.02, 1]",
+        "coat_thickness_m": "[0, 0.01]",
+        "coat_metalness": "[0, 1]",
+        "coat_roughness": "[0.02, 1]",
     }
     assert {k.key: k.range_text() for k in MATERIAL_NUMBERS} == documented
     # ... and the validator holds each bound: just past it is refused, the bound itself as the

@@ -45,6 +45,10 @@ uniform int u_levels;
 uniform vec3 u_base_colour;       // linear RGB
 uniform float u_metalness;        // 0 dielectric .. 1 metal
 uniform float u_roughness;        // perceptual; GGX alpha = roughness^2
+uniform float u_coat_thickness;   // metres of paint (0: none); deeper dents show the material
+uniform vec3 u_coat_colour;       // linear RGB
+uniform float u_coat_metalness;
+uniform float u_coat_roughness;
 uniform int u_surface;            // procedural detail (surface_detail.glsl)
 uniform sampler2D u_base_texture; // TEXTURED: the mesh's own base-colour image (it replaces
                                   // u_base_colour), sRGB bytes, row 0 at texture v = 0
@@ -190,14 +194,23 @@ void main() {
 #if SURFACE_DETAIL
     surface_detail(u_surface, uv, v_world, base, roughness);
 #endif
+    float metalness = u_metalness;
 #if GROUND
     vec2 cell = floor(v_world.xz / 0.25);
     base *= mod(cell.x + cell.y, 2.0) < 0.5 ? 1.0 : 0.75;
+#else
+    // The coat covers the texel unless a dent or scratch goes deeper than it (the rule of
+    // Appearance.coated and of the glTF export's textures).
+    if (u_coat_thickness > 0.0 && depth_at(uv) <= u_coat_thickness) {
+        base = u_coat_colour;
+        roughness = u_coat_roughness;
+        metalness = u_coat_metalness;
+    }
 #endif
     roughness = clamp(roughness, 0.03, 1.0);
     float a = roughness * roughness;
-    vec3 f0 = mix(vec3(0.04), base, u_metalness);
-    vec3 diffuse_colour = base * (1.0 - u_metalness);
+    vec3 f0 = mix(vec3(0.04), base, metalness);
+    vec3 diffuse_colour = base * (1.0 - metalness);
     float nv = max(dot(n, view), 1e-4);
 
     // The sun.

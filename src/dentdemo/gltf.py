@@ -323,6 +323,14 @@ class _Builder:
             pbr["baseColorFactor"] = [1.0, 1.0, 1.0, 1.0]
             texture = self.texture(image, False, f"{name} base colour")
             pbr["baseColorTexture"] = {"index": texture, "texCoord": base_coords}
+        elif look.coat_thickness > 0.0 and part.height_map is not None:
+            colour, metal_rough = coat_textures(look, part.height_map)
+            pbr.update(baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=1.0)
+            pbr["roughnessFactor"] = 1.0
+            texture = self.texture(colour, True, f"{name} base colour")
+            pbr["baseColorTexture"] = {"index": texture, "texCoord": 0}
+            texture = self.texture(metal_rough, True, f"{name} metallic roughness")
+            pbr["metallicRoughnessTexture"] = {"index": texture, "texCoord": 0}
         if part.normal_map is not None:
             normal = part.normal_map[::-1, :, :3]  # image order: top row v = 1
             texture = self.texture(normal, True, f"{name} normal")
@@ -346,6 +354,26 @@ class _Builder:
             "zero_level": -offset / per_unit,
             "height_m": "offset_m + metres_per_unit * value (16-bit greyscale, top row v = 1)",
         }
+
+
+def coat_textures(
+    look: Appearance, height: NDArray[np.float32]
+) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
+    """A coated surface's base-colour (sRGB) and metallic-roughness (G roughness, B metalness,
+    linear) images, rows top-down (top row v = 1): per texel the coat's where it covers the
+    texel (`Appearance.coated`: height >= -coat_thickness), the material's where a dent or a
+    scratch goes deeper, as the renderer draws it."""
+    coated = (height >= -look.coat_thickness)[::-1, :, None]
+    linear = np.where(coated, look.coat_colour, look.base_colour)
+    srgb = np.where(linear <= 0.0031308, linear * 12.92, 1.055 * np.power(linear, 1 / 2.4) - 0.055)
+    rough = np.where(coated, look.coat_roughness, look.roughness)
+    metal = np.where(coated, look.coat_metalness, look.metalness)
+    metal_rough = np.concatenate([np.zeros_like(rough), rough, metal], axis=2)
+
+    def byte(x: NDArray[np.float64]) -> NDArray[np.uint8]:
+        return np.round(np.clip(x, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+    return byte(srgb), byte(metal_rough)
 
 
 def _unit(vectors: NDArray[np.floating]) -> NDArray[np.float32]:

@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from dentdemo.app.controller import DemoController
-from dentdemo.model.materials import SURFACES
+from dentdemo.model.materials import SURFACES, Appearance
 from dentdemo.model.materials_keys import MATERIAL_NUMBERS
 
 #: The window's width and its margin from the screen's top right corner, pixels.
@@ -50,6 +50,10 @@ def editor_window(imgui: Any, app: DemoController) -> None:
     )
     if changed:
         app.edit_material("base_colour", [float(c) for c in colour])
+    coat = draft.get("coat_colour", list(Appearance().coat_colour))
+    changed, colour = imgui.color_edit3("coat_colour  linear RGB [0, 1]", list(coat))
+    if changed:
+        app.edit_material("coat_colour", [float(c) for c in colour])
     changed, index = imgui.combo("surface", SURFACES.index(draft["surface"]), list(SURFACES))
     if changed:
         app.edit_material("surface", SURFACES[index])

@@ -46,6 +46,17 @@ class Appearance:
     roughness: float = NUMBER_KEYS["roughness"].default or 0.5
     #: Procedural detail: one of SURFACES.
     surface: str = "plain"
+    #: A coat of paint over the body, metres thick (0: none). Where a dent or a scratch is
+    #: deeper than the coat (height < -coat_thickness) the material above shows; elsewhere the
+    #: coat's own colour (linear RGB), metalness and roughness.
+    coat_thickness: float = 0.0
+    coat_colour: tuple[float, float, float] = (0.5, 0.5, 0.5)
+    coat_metalness: float = 0.0
+    coat_roughness: float = 0.5
+
+    def coated(self, height: float) -> bool:
+        """Whether the coat covers a texel of `height` metres (dents negative)."""
+        return self.coat_thickness > 0.0 and height >= -self.coat_thickness
 
 
 @dataclass(frozen=True)
@@ -109,6 +120,10 @@ class Material:
             "metalness": self.appearance.metalness,
             "roughness": self.appearance.roughness,
             "surface": self.appearance.surface,
+            "coat_thickness_m": self.appearance.coat_thickness,
+            "coat_colour": list(self.appearance.coat_colour),
+            "coat_metalness": self.appearance.coat_metalness,
+            "coat_roughness": self.appearance.coat_roughness,
         }
 
 
@@ -259,6 +274,13 @@ def material_table(material: Material) -> dict[str, Any]:
         roughness=look.roughness,
         surface=look.surface,
     )
+    if look.coat_thickness > 0.0:
+        table.update(
+            coat_thickness_m=look.coat_thickness,
+            coat_colour=list(look.coat_colour),
+            coat_metalness=look.coat_metalness,
+            coat_roughness=look.coat_roughness,
+        )
     return table
 
 
@@ -284,14 +306,16 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
     hardness, hardness_explicit = _hardness(reader, number["yield_stress_Pa"])
     source_text = reader.string("source", "")
     default = Appearance()
-    colour = reader.vec3("base_colour", default.base_colour)
-    if not all(0.0 <= c <= 1.0 for c in colour):
-        raise reader.fail("base_colour", "each component must lie in [0, 1] (linear RGB)")
+    colour = _colour(reader, "base_colour", default.base_colour)
     appearance = Appearance(
         base_colour=colour,
         metalness=number["metalness"],
         roughness=number["roughness"],
         surface=reader.string("surface", default.surface, choices=SURFACES),
+        coat_thickness=number["coat_thickness_m"],
+        coat_colour=_colour(reader, "coat_colour", default.coat_colour),
+        coat_metalness=number["coat_metalness"],
+        coat_roughness=number["coat_roughness"],
     )
     reader.finish()
     return Material(
@@ -313,6 +337,16 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
         hardness=hardness,
         hardness_explicit=hardness_explicit,
     )
+
+
+def _colour(
+    reader: TableReader, key: str, default: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """A linear RGB colour key, each component in [0, 1]."""
+    colour = reader.vec3(key, default)
+    if not all(0.0 <= c <= 1.0 for c in colour):
+        raise reader.fail(key, "each component must lie in [0, 1] (linear RGB)")
+    return colour
 
 
 #: Tabor's constraint factor: a metal's indentation hardness is about three times its yield

@@ -177,6 +177,26 @@ MATERIAL_NUMBERS: tuple[NumberKey, ...] = (
         default=0.5,
         why="GGX perceptual roughness (alpha = r^2); polished metal ~0.05 to chalk 1",
     ),
+    # A coat of paint (optional): where a dent or scratch goes deeper, the material shows.
+    NumberKey(
+        "coat_thickness_m",
+        "m",
+        low=0.0,
+        high=0.01,
+        default=0.0,
+        why="0: no coat; car paint ~1e-4 m, a thick enamel ~1e-3 m",
+    ),
+    NumberKey(
+        "coat_metalness", "1", low=0.0, high=1.0, default=0.0, why="0 dielectric (paint), 1 metal"
+    ),
+    NumberKey(
+        "coat_roughness",
+        "1",
+        low=0.02,
+        high=1.0,
+        default=0.5,
+        why="GGX perceptual roughness of the coat; gloss paint ~0.2 to matte 1",
+    ),
 )
 
 #: The same, by key.
