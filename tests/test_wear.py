@@ -101,6 +101,7 @@ def test_the_physics_wear_scale_is_validated(tmp_path):
 def _sandbox(gl, tmp_path, scale: float):
     from dentdemo.app.simulation import Simulation
 
+    tmp_path.mkdir(parents=True, exist_ok=True)
     materials = tmp_path / "m.toml"
     materials.write_text(WEARING)
     scene_path = tmp_path / "s.toml"
@@ -197,5 +198,70 @@ def test_a_scratch_is_undone_with_its_batch_and_bounded_by_the_map(gl, tmp_path)
             before = _plate_heights(sim)
         assert undone, "no groove was carved"
         assert before.min() == pytest.approx(-0.01, rel=1e-6)
+    finally:
+        sim.close()
+
+
+def test_save_and_resume_mid_slide_is_bit_identical(gl, tmp_path):
+    """A ball skidding over segment boundaries, saved part-way through a segment and resumed in
+    a new simulation: the plate's heights after as many steps are the same bits as one run's,
+    and so is the volume worn (the slide's unfinished segment travels in the state)."""
+    from dentdemo.app.state import load_state, save_state
+
+    def skid(sim, steps):
+        for _ in range(steps):
+            sim.step()
+
+    one = _sandbox(gl, tmp_path / "one", 1e5)
+    try:
+        skid(one, 10)
+        one.world.set_velocity("ball", (2.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        skid(one, 4)
+        assert one.wear is not None and one.wear.tracks  # mid-segment
+        save_state(one, tmp_path / "saved")
+        skid(one, 26)
+        expected, worn = _plate_heights(one), dict(one.wear.worn)
+    finally:
+        one.close()
+    two = _sandbox(gl, tmp_path / "two", 1e5)
+    try:
+        load_state(two, tmp_path / "saved")
+        assert two.wear is not None and two.wear.tracks
+        skid(two, 26)
+        assert (_plate_heights(two) == expected).all()
+        assert (expected < 0).any()
+        assert two.wear.worn == worn
+    finally:
+        two.close()
+
+
+@pytest.mark.parametrize(
+    "change,key",
+    [
+        (lambda w: w["tracks"][0].update(worn="nobody"), "worn"),
+        (lambda w: w["tracks"][0].update(volume=-1.0), "volume"),
+        (lambda w: w["tracks"][0].update(normal=[0.0, 2.0, 0.0]), "normal"),
+        (lambda w: w["worn"].update(nobody=1.0), "nobody"),
+    ],
+)
+def test_a_saved_slide_is_checked(gl, tmp_path, change, key):
+    import json
+
+    from dentdemo.app.state import load_state, save_state
+    from dentdemo.errors import DentdemoError
+
+    sim = _sandbox(gl, tmp_path, 1e5)
+    try:
+        for _ in range(10):
+            sim.step()
+        sim.world.set_velocity("ball", (2.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        for _ in range(4):
+            sim.step()
+        path = save_state(sim, tmp_path / "saved")
+        payload = json.loads(path.read_text())
+        change(payload["wear"])
+        path.write_text(json.dumps(payload))
+        with pytest.raises(DentdemoError, match=key):
+            load_state(sim, tmp_path / "saved")
     finally:
         sim.close()

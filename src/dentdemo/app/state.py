@@ -45,6 +45,7 @@ from dentdemo.app.simulation import (
     Simulation,
     map_side,
 )
+from dentdemo.app.wear import SavedWear, read_wear
 from dentdemo.carve.surface import rebuild_all_normals
 from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.mesh.shapes import shape_mesh
@@ -181,6 +182,8 @@ def _snapshot(
         "stats": dataclasses.asdict(sim.stats),
         "ball_count": sim.ball_count,
     }
+    if sim.wear is not None:  # a slide under way (app/wear.py)
+        payload["wear"] = sim.wear.saved()
     return payload, files, heights
 
 
@@ -270,6 +273,8 @@ class SavedState:
     log_places: tuple[str, ...] = ()
     checkpoint: SavedState | None = None
     checkpoint_kept: Checkpoint | None = None
+    #: Scratches under way (app/wear.py), where the scene wears.
+    wear: SavedWear | None = None
 
 
 #: Reads one height map: (its entry in `maps`, body id, file name, sha256, shape (v, u)).
@@ -656,6 +661,7 @@ def _parse(
         carved_points=tuple(points),
         stats=_stats(top.table_at("stats")),
         ball_count=top.integer("ball_count", min_value=0, max_value=COUNT_MAX),
+        wear=read_wear(top.table_at("wear"), set(world.order)) if top.has("wear") else None,
     )
     if compact is not None:
         state = dataclasses.replace(state, **compact)
@@ -904,6 +910,8 @@ def _apply_rest(sim: Simulation, state: SavedState) -> None:
     sim.carved_points.extend(state.carved_points)
     sim.stats = dataclasses.replace(state.stats)
     sim.ball_count = state.ball_count
+    if sim.wear is not None and state.wear is not None:
+        sim.wear.restore(state.wear)
 
 
 def load_state(sim: Simulation, directory: Path) -> None:

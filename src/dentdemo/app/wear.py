@@ -34,6 +34,7 @@ from dentdemo.model.shapes import Capsule, Plane, Sphere
 
 if TYPE_CHECKING:
     from dentdemo.app.simulation import Simulation
+    from dentdemo.model.validate import TableReader
     from dentdemo.physics.world import Slide
 
 #: A groove segment is carved once the tool has travelled this far over the worn body, m.
@@ -206,6 +207,31 @@ class WearTracker:
             self._tools[key] = held
         return held
 
+    def saved(self) -> dict[str, object]:
+        """The tracks (a slide under way), the volume worn per body and the segments carved, as
+        a saved state's `wear` (floats as Python writes them back exactly)."""
+        return {
+            "tracks": [
+                {
+                    "worn": worn,
+                    "tool": tool,
+                    **{k: getattr(t, k).tolist() for k in ("start", "end", "point", "normal")},
+                    "volume": t.volume,
+                }
+                for (worn, tool), t in self.tracks.items()
+            ],
+            "worn": dict(self.worn),
+            "carved": self.carved,
+        }
+
+    def restore(self, saved: SavedWear) -> None:
+        """Go on from `saved` (pending grooves are carved in the step that makes them: none)."""
+        self.clear()
+        for key, (start, end, point, normal, volume) in saved.tracks:
+            self.tracks[key] = _Track(start.copy(), end.copy(), point.copy(), normal.copy(), volume)
+        self.worn = dict(saved.worn)
+        self.carved = saved.carved
+
     def forget(self, body_id: str) -> None:
         """A body is gone: its tracks and pending grooves with it."""
         self.tracks = {k: t for k, t in self.tracks.items() if body_id not in k}
@@ -222,6 +248,49 @@ class WearTracker:
             gpu.release()
         self._tools.clear()
         self._meshes.clear()
+
+
+@dataclass(frozen=True)
+class SavedWear:
+    """A saved state's `wear`, read and checked (`read_wear`)."""
+
+    #: ((worn, tool), (start, end, point, normal, volume)), local metres and m^3.
+    tracks: tuple[tuple[tuple[str, str], tuple], ...]
+    worn: dict[str, float]
+    carved: int
+
+
+#: Bounds of a saved state's wear: tracks (one per touching pair), metres from a body's origin.
+TRACKS_MAX = 100_000
+REACH_M = 1e4
+
+
+def read_wear(r: TableReader, bodies: set[str]) -> SavedWear:
+    """A saved state's `wear` table, every value checked; `bodies`: the state's body ids."""
+    tracks = []
+    for i, entry in enumerate(r.items("tracks", TRACKS_MAX)):
+        t = type(r)(r.source, f"{r.table_name}.tracks[{i}]", entry)
+        key = (t.string("worn", choices=sorted(bodies)), t.string("tool", choices=sorted(bodies)))
+        points = [
+            np.array(t.vector(name, None, 3, REACH_M, "distance from the body's origin (m)"))
+            for name in ("start", "end", "point")
+        ]
+        normal = np.array(t.vector("normal", None, 3, 1.0 + 1e-6, "length"))
+        volume = t.number("volume", None, min_value=0.0, max_value=REACH_M)
+        t.finish()
+        tracks.append((key, (*points, normal, volume)))
+    worn_table = r.table_at("worn")
+    for body in worn_table.table:
+        if body not in bodies:
+            raise worn_table.fail(body, "names no body of the state")
+    worn = {
+        body: worn_table.number(body, None, min_value=0.0, max_value=REACH_M)
+        for body in sorted(worn_table.table)
+    }
+    worn_table.finish()
+    carved = r.integer("carved", min_value=0, max_value=2**53)
+    r.finish()
+    return SavedWear(tuple(tracks), worn, carved)
 
 
 def _relative_velocity(
