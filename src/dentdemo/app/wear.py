@@ -8,13 +8,16 @@ pair stops sliding. A segment shallower than VISIBLE_DEPTH is dropped with its v
 not show at a sandbox's texels. Pure rolling slips nothing (the physics reports no slide), so it
 wears nothing; a slide that stops ends its groove.
 
-Tools: a sphere (a ball skidding); a box or mesh tool's sliding wears nothing yet (its swept
-solid along an arbitrary path is not a built-in shape). Worn bodies: any dentable body but the
-ground plane."""
+Tools: a sphere (a ball skidding; swept, a built-in capsule, kept per size) and a box (a crate
+sliding; swept, the convex hull of its corners at both ends of the segment, mesh/hull.py, made
+per segment, its depth the one whose cross-section across the path, the box's corners projected
+along it, times the segment is the volume). A mesh, capsule or cylinder tool wears nothing yet.
+Worn bodies: any dentable body but the ground plane."""
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -27,10 +30,11 @@ from dentdemo.carve.surface import create_maps, map_size_for
 from dentdemo.gl.context import GLContext
 from dentdemo.gpu.maps import SurfaceMaps
 from dentdemo.gpu.mesh import GpuMesh
+from dentdemo.mesh.hull import convex_ring, hull_mesh
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.model import wear
-from dentdemo.model.shapes import Capsule, Plane, Sphere
+from dentdemo.model.shapes import Box, Capsule, Plane, Sphere
 
 if TYPE_CHECKING:
     from dentdemo.app.simulation import Simulation
@@ -65,13 +69,15 @@ class _Track:
 
 @dataclass(frozen=True)
 class Groove:
-    """One segment to carve: `worn` pressed by `tool`'s sphere swept from `start` to `end`."""
+    """One segment to carve: `worn` pressed by `tool` swept along `track`: a sphere of `radius`,
+    or a box whose `corners` (8, 3) are in the worn body's frame at the segment's end."""
 
     worn: str
     tool: str
     radius: float
     track: _Track
     depth: float
+    corners: NDArray[np.float64] | None = None
 
 
 class WearTracker:
@@ -89,6 +95,8 @@ class WearTracker:
         self.carved = 0
         self._tools: dict[tuple[float, float, float], tuple[GpuMesh, SurfaceMaps]] = {}
         self._meshes: dict[tuple[float, float], Mesh] = {}
+        #: The swept boxes of the last batch (one hull each), released at the next.
+        self._hulls: list[tuple[GpuMesh, SurfaceMaps]] = []
 
     def observe(self, sim: Simulation, slides: dict[tuple[str, str], Slide]) -> None:
         """One physics step's slides: wear builds up along each path; a path long enough, or
@@ -113,7 +121,7 @@ class WearTracker:
             and body.spec.dentable
             and not isinstance(body.spec.shape, Plane)
             and body.spec.material.wear_coefficient > 0
-            and isinstance(other.spec.shape, Sphere)
+            and isinstance(other.spec.shape, Sphere | Box)
         )
 
     def _add(
@@ -128,6 +136,17 @@ class WearTracker:
         point = (inverse @ np.append(slide.point, 1.0))[:3]
         normal = inverse[:3, :3] @ outward
         normal /= np.linalg.norm(normal)
+        # The worn body's surface (the tool's lowest point lifted by the contact's penetration:
+        # first touch), and the path's point on it: a sphere's contact; a box's centre, since
+        # its deepest contact jumps between its corners.
+        shape = sim.bodies[tool].spec.shape
+        centre = (inverse @ sim.model(tool)[:, 3])[:3]
+        if isinstance(shape, Box):
+            lowest = float((_corners(sim, worn, tool, shape) @ normal).min())
+            point = centre
+        else:
+            lowest = float(centre @ normal) - shape.radius  # type: ignore[union-attr]
+        point = point + (lowest + slide.depth - float(point @ normal)) * normal
         track = self.tracks.get((worn, tool))
         if track is None:  # the slide began during this step: its path from the step's start
             physics = sim.scene.physics
@@ -148,13 +167,25 @@ class WearTracker:
         length = _length(track)
         if tool is None or length < LENGTH_STEP or track.volume <= 0:
             return
-        radius = tool.spec.shape.radius  # type: ignore[union-attr]
-        depth = wear.sphere_groove_depth(radius, track.volume / length)
+        shape = tool.spec.shape
+        if isinstance(shape, Box):
+            corners = _corners(sim, key[0], key[1], shape)
+            depth = wear.section_depth(_section(corners, track), track.volume / length)
+            groove = Groove(key[0], key[1], 0.0, track, depth, corners)
+        else:
+            radius = shape.radius  # type: ignore[union-attr]
+            depth = wear.sphere_groove_depth(radius, track.volume / length)
+            groove = Groove(key[0], key[1], radius, track, depth)
         if depth >= VISIBLE_DEPTH:
-            self.pending.append(Groove(key[0], key[1], radius, track, depth))
+            self.pending.append(groove)
 
     def take(self, sim: Simulation) -> list[Press]:
-        """The pending grooves as presses (their worn body posed as it is now), and none left."""
+        """The pending grooves as presses (their worn body posed as it is now), and none left.
+        The swept boxes of the batch before are released: it has been carved."""
+        for gpu, maps in self._hulls:
+            maps.release()
+            gpu.release()
+        self._hulls = []
         presses = []
         for groove in self.pending:
             body = sim.bodies.get(groove.worn)
@@ -174,6 +205,13 @@ class WearTracker:
         # The path in the contact's plane, the swept sphere's axis R above it (first touch).
         start = track.start - ((track.start - track.point) @ n) * n
         end = track.end - ((track.end - track.point) @ n) * n
+        mid = model @ np.append((start + end) / 2, 1.0)
+        press_in = -(model[:3, :3] @ n)
+        contact = ContactFrame(mid[:3], press_in / np.linalg.norm(press_in))
+        target = CarveBody(gpu, maps, model)
+        if groove.corners is not None:
+            tool = self._swept_box(groove, end - start, maps, model)
+            return Press(target, tool, contact, groove.depth)
         along = end - start
         length = float(np.linalg.norm(along))
         direction = along / length
@@ -183,11 +221,30 @@ class WearTracker:
         local = np.eye(4)
         local[:3, :3] = np.column_stack([np.cross(n, direction), n, direction])
         local[:3, 3] = (start + end) / 2 + n * r
-        mid = model @ np.append((start + end) / 2, 1.0)
-        press_in = -(model[:3, :3] @ n)
-        contact = ContactFrame(mid[:3], press_in / np.linalg.norm(press_in))
-        target = CarveBody(gpu, maps, model)
         return Press(target, CarveBody(tool_gpu, tool_maps, model @ local), contact, depth)
+
+    def _swept_box(
+        self,
+        groove: Groove,
+        shift: NDArray[np.float64],
+        maps: SurfaceMaps,
+        model: NDArray[np.float64],
+    ) -> CarveBody:
+        """The box swept along the segment (the hull of its corners at both ends), in the worn
+        body's frame, touching the contact's plane (first touch); posed as the worn body."""
+        assert groove.corners is not None
+        track, n = groove.track, groove.track.normal
+        points = np.vstack([groove.corners - shift, groove.corners])
+        points -= n * float(((points - track.point) @ n).min())
+        mesh = hull_mesh(points, "swept box")
+        gpu = GpuMesh(self.gl, mesh)
+        with warnings.catch_warnings():  # capped on purpose: only its pitch matters
+            warnings.simplefilter("ignore")
+            texels = map_size_for(mesh, 1.0 / min(maps.texel_metres), cap=TOOL_MAP_MAX)
+        side = _power_of_two(texels)
+        hull = (gpu, create_maps(self.gl, gpu, side, 0.0))
+        self._hulls.append(hull)
+        return CarveBody(gpu, hull[1], model)
 
     def _tool(self, radius: float, length: float, texel: float) -> tuple[GpuMesh, SurfaceMaps]:
         """The capsule swept by a sphere of `radius` along `length`, its texels no coarser than
@@ -197,8 +254,7 @@ class WearTracker:
             mesh = self._meshes[(radius, length)] = shape_mesh(
                 Capsule(radius, length), Tessellation()
             )
-        side = map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX)
-        side = min(1 << (side - 1).bit_length(), TOOL_MAP_MAX)
+        side = _power_of_two(map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX))
         key = (radius, length, float(side))
         held = self._tools.get(key)
         if held is None:
@@ -243,9 +299,10 @@ class WearTracker:
         self.worn.clear()
 
     def release(self) -> None:
-        for gpu, maps in self._tools.values():
+        for gpu, maps in [*self._tools.values(), *self._hulls]:
             maps.release()
             gpu.release()
+        self._hulls = []
         self._tools.clear()
         self._meshes.clear()
 
@@ -291,6 +348,33 @@ def read_wear(r: TableReader, bodies: set[str]) -> SavedWear:
     carved = r.integer("carved", min_value=0, max_value=2**53)
     r.finish()
     return SavedWear(tuple(tracks), worn, carved)
+
+
+def _power_of_two(side: int) -> int:
+    """The power of two at or above `side`, up to TOOL_MAP_MAX (a swept tool's map side)."""
+    return min(1 << (side - 1).bit_length(), TOOL_MAP_MAX)
+
+
+def _corners(sim: Simulation, worn: str, tool: str, box: Box) -> NDArray[np.float64]:
+    """The box's corners in the worn body's frame, metres."""
+    half = np.asarray(box.size) / 2.0
+    local = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    local[:, :3] *= half
+    relative = np.linalg.inv(sim.model(worn)) @ sim.model(tool)
+    return (local @ relative.T)[:, :3]
+
+
+def _section(corners: NDArray[np.float64], track: _Track) -> list[tuple[float, float]]:
+    """The swept box's cross-section across the path: its corners projected along the path onto
+    (across, height above its lowest point), their convex hull counter-clockwise."""
+    n = track.normal
+    along = track.end - track.start
+    along -= (along @ n) * n
+    across = np.cross(n, along / max(float(np.linalg.norm(along)), 1e-30))
+    flat = np.stack([corners @ across, corners @ n], axis=1)
+    flat[:, 1] -= flat[:, 1].min()
+    ring = convex_ring(flat, 1e-12)
+    return [(float(flat[i, 0]), float(flat[i, 1])) for i in ring]
 
 
 def _relative_velocity(

@@ -82,3 +82,44 @@ def sphere_groove_profile(radius: float, depth: float, offset: float) -> float:
     if reach <= 0.0:
         return 0.0
     return max(depth - (radius - math.sqrt(reach)), 0.0)
+
+
+def section_area(section: list[tuple[float, float]], depth: float) -> float:
+    """Area of a convex cross-section (its corners counter-clockwise, (across, height) metres,
+    height measured from the tool's lowest point up) below `depth`, m^2: the groove the tool cut
+    `depth` deep leaves across its path (Sutherland-Hodgman against height <= depth, then the
+    shoelace formula)."""
+    clipped: list[tuple[float, float]] = []
+    for i, (x0, y0) in enumerate(section):
+        x1, y1 = section[(i + 1) % len(section)]
+        inside0, inside1 = y0 <= depth, y1 <= depth
+        if inside0:
+            clipped.append((x0, y0))
+        if inside0 != inside1:
+            t = (depth - y0) / (y1 - y0)
+            clipped.append((x0 + t * (x1 - x0), depth))
+    area = 0.0
+    for i, (x0, y0) in enumerate(clipped):
+        x1, y1 = clipped[(i + 1) % len(clipped)]
+        area += x0 * y1 - x1 * y0
+    return abs(area) / 2.0
+
+
+def section_depth(section: list[tuple[float, float]], area: float) -> float:
+    """The depth at which `section_area` is `area`, m, by bisection over the section's height
+    (deeper than the whole section: its full width on down)."""
+    if area <= 0.0 or len(section) < 3:
+        return 0.0
+    top = max(y for _, y in section)
+    whole = section_area(section, top)
+    if area >= whole:
+        width = max(x for x, _ in section) - min(x for x, _ in section)
+        return top + (area - whole) / max(width, 1e-30)
+    lo, hi = 0.0, top
+    for _ in range(DEPTH_STEPS):
+        mid = 0.5 * (lo + hi)
+        if section_area(section, mid) < area:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
