@@ -70,6 +70,21 @@ def bodies(gl):
     b.release()
 
 
+@pytest.fixture
+def ball_drop_app(gl):
+    """The demo's controller on ball_drop, 64 x 36 pixels, closed after the test."""
+    from dentdemo.app.controller import DemoController
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.scene import load_scene
+
+    lib = load_materials()
+    controller = DemoController(
+        gl, load_scene(ROOT / "assets/scenes/ball_drop.toml", lib), lib, (64, 36)
+    )
+    yield controller
+    controller.close()
+
+
 @pytest.fixture(autouse=True)
 def release_presses():
     """The press fixture's cleanup: every press a test made through carve_helpers.setup is

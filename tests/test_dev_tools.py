@@ -41,23 +41,25 @@ def app(gl, tmp_path):
 
 
 def _ndc(app: DemoController, point) -> tuple[float, float]:
-    x, y = app.camera.project(np.array([point]), app.renderer.aspect, app.renderer.size)[0]
-    w, h = app.renderer.size
+    x, y = app.view.camera.project(
+        np.array([point]), app.view.renderer.aspect, app.view.renderer.size
+    )[0]
+    w, h = app.view.renderer.size
     return x / w * 2 - 1, 1 - y / h * 2
 
 
 def test_ctrl_click_selects_the_body_under_the_cursor(app):
-    assert app.select_at(*_ndc(app, (0.0, 0.5, 0.0))) == "ball"
-    assert app.select_at(*_ndc(app, (0.15, 0.02, 0.1))) == "plate"
-    assert app.select_at(*_ndc(app, (1.0, 0.0, -1.0))) == "ground"
-    app.camera = OrbitCamera.from_eye((0.0, 0.5, 1.5), (0.0, 1.5, 0.0), 45.0)  # looking up
-    assert app.select_at(0.0, 0.5) is None  # the sky
-    assert app.selection_text() == ["nothing selected (Ctrl + click a body)"]
+    assert app.tools.select_at(*_ndc(app, (0.0, 0.5, 0.0))) == "ball"
+    assert app.tools.select_at(*_ndc(app, (0.15, 0.02, 0.1))) == "plate"
+    assert app.tools.select_at(*_ndc(app, (1.0, 0.0, -1.0))) == "ground"
+    app.view.camera = OrbitCamera.from_eye((0.0, 0.5, 1.5), (0.0, 1.5, 0.0), 45.0)  # looking up
+    assert app.tools.select_at(0.0, 0.5) is None  # the sky
+    assert app.tools.selection_text() == ["nothing selected (Ctrl + click a body)"]
 
 
 def test_the_selection_names_material_dents_and_the_deepest(app):
-    app.select_at(*_ndc(app, (0.15, 0.02, 0.1)))
-    assert app.selection_text() == [
+    app.tools.select_at(*_ndc(app, (0.15, 0.02, 0.1)))
+    assert app.tools.selection_text() == [
         "plate: plate, lead, takes dents",
         "0 dents, deepest 0.00 mm (bound 30 mm)",
     ]
@@ -72,7 +74,7 @@ def test_the_selection_names_material_dents_and_the_deepest(app):
     dents = app.sim.dents["plate"]
     assert dents.deepest == pytest.approx(depth, rel=0.01)
     assert dents.count == len(app.sim.carved_points) >= 1  # every carve here is in the plate
-    assert app.selection_text()[1] == (
+    assert app.tools.selection_text()[1] == (
         f"{dents.count} dents, deepest {dents.deepest * 1e3:.2f} mm (bound 30 mm)"
     )
     app.reset()
@@ -83,14 +85,14 @@ def test_the_map_view_colours_heights_on_the_gpu(app, gl):
     """The height view texture shows each block's deepest texel on the height view's ramp:
     untouched grey (0.88), 2.5 mm of a 5 mm scale teal (0.10, 0.70, 0.60), 5 mm red (0.85, 0.15,
     0.10), sRGB; the normal map is the body's own texture."""
-    app.selected = "plate"
+    app.tools.selected = "plate"
     maps = app.sim.bodies["plate"].maps
     side = maps.size[0]  # 0.4 m at 1024 texels per metre: 410 -> blocks of 2
     heights = np.zeros((side, side), np.float32)
     heights[0, 1] = -0.0025  # one texel, in view pixel (0, 0)
     heights[side - 2 :, side - 2 :] = -0.005  # the last block, view pixel (204, 204)
     maps.height.write(heights.tobytes())
-    view, normal = app.map_textures()
+    view, normal = app.tools.map_textures()
     assert normal is maps.normal
     image = np.frombuffer(view.read(), np.uint8).reshape(256, 256, 4)[:, :, :3] / 255.0
     block = math.ceil(side / 256)
@@ -98,20 +100,20 @@ def test_the_map_view_colours_heights_on_the_gpu(app, gl):
     np.testing.assert_allclose(image[0, 0], (0.10, 0.70, 0.60), atol=1 / 255)
     np.testing.assert_allclose(image[last, last], (0.85, 0.15, 0.10), atol=1 / 255)
     np.testing.assert_allclose(image[100, 30], (0.88, 0.88, 0.88), atol=1 / 255)
-    app.selected = "ground"  # takes no dents: no view
-    assert app.map_textures() is None
+    app.tools.selected = "ground"  # takes no dents: no view
+    assert app.tools.map_textures() is None
 
 
 @pytest.mark.slow
 def test_the_profiler_keeps_the_last_seconds_of_every_phase(app):
     loop = FrameLoop(app, ImageBackend((320, 180), None), fixed_dt=True)
     loop.run(frames=6)
-    assert len(app.profiler) == 6
+    assert len(app.tools.profiler) == 6
     for phase in PHASES:
-        values = app.profiler.series(phase)
+        values = app.tools.profiler.series(phase)
         assert values.dtype == np.float32 and len(values) == 6
         assert np.isfinite(values).all() and (values >= 0).all()
-    assert app.profiler.mean("render") > 0
+    assert app.tools.profiler.mean("render") > 0
     strip = Profiler(seconds=5.0)
     for t in range(11):
         strip.add(float(t), (t, 2 * t, 0.0, 1.0))
@@ -130,10 +132,10 @@ from dentdemo.render.camera import OrbitCamera
 lib = load_materials()
 window = DemoWindow(load_scene(sys.argv[1], lib), lib, (320, 180), "low")
 app = window.app
-app.toggle_recording(Path(sys.argv[2]))
+app.recording.toggle(Path(sys.argv[2]))
 FrameLoop(app, window, fixed_dt=False).run(frames=30)  # wall-clock stepping, but recording
 steps = app.sim.stats.frames
-app.toggle_recording()
+app.recording.toggle()
 print(json.dumps({"steps": steps, "t": app.sim.world.time, "message": app.message}))
 window.close()
 """
@@ -170,9 +172,9 @@ def test_the_world_holds_nothing_only_drawn_and_scenery_follows_it(app):
     from dentdemo.app.simulation import SimBody
 
     assert [f.name for f in fields(SimBody)] == ["spec", "mesh", "gpu_mesh", "maps"]
-    assert app.scenery.parts == {}
-    app.render()
-    parts = app.scenery.parts
+    assert app.view.scenery.parts == {}
+    app.view.render()
+    parts = app.view.scenery.parts
     assert set(parts) == set(app.sim.bodies)
     sides = parts["plate"].under
     assert sides is not None and parts["ball"].under is None and parts["ball"].coarser
@@ -184,11 +186,11 @@ def test_the_world_holds_nothing_only_drawn_and_scenery_follows_it(app):
     faces_up = sides.mesh.normals[sides.mesh.indices[:, 0], 1] > 0.5
     assert not faces_up.any()  # the top face is the dentable plate's own
     app.reset()
-    app.render()
-    assert app.scenery.parts["plate"].under is sides  # the same shape: kept
+    app.view.render()
+    assert app.view.scenery.parts["plate"].under is sides  # the same shape: kept
     ball = app.sim.drop_ball((0.1, 0.4, 0.0), radius=0.03)
-    app.render()
-    assert ball in app.scenery.parts
+    app.view.render()
+    assert ball in app.view.scenery.parts
     app.sim.remove_body(ball)
-    app.render()
-    assert ball not in app.scenery.parts
+    app.view.render()
+    assert ball not in app.view.scenery.parts

@@ -196,7 +196,7 @@ def test_a_recording_without_frames_writes_nothing(gl, tmp_path, capsys):
     root = Path(__file__).resolve().parents[1]
     app = DemoController(gl, load_scene(root / "assets/scenes/ball_drop.toml", lib), lib, (64, 36))
     target = tmp_path / "r.mp4"
-    assert app.toggle_recording(target)
+    assert app.recording.toggle(target)
     app.close()  # Esc: the window closes the controller, which stops the recording
     assert sorted(tmp_path.iterdir()) == []
     err = capsys.readouterr().err.strip().splitlines()

@@ -21,6 +21,7 @@ from PIL import Image
 
 import dentdemo
 from cli_helpers import dentdemo as run_dentdemo
+from dentdemo.app.export import export_gltf
 from dentdemo.app.simulation import Simulation
 from dentdemo.gltf import HEIGHT_KEY, quaternion, trs
 from dentdemo.mesh.shapes import plate_sides
@@ -121,9 +122,9 @@ def exports(gl_session, tmp_path_factory) -> dict:
     held = {}
     for scene in SCENES:
         sim = _simulated(gl, scene, FRAMES)
-        path = sim.export_gltf(out / f"{scene.stem}.glb")
+        path = export_gltf(sim, out / f"{scene.stem}.glb")
         if scene.stem == "ball_drop":
-            sim.export_gltf(out / "ball_drop.gltf")
+            export_gltf(sim, out / "ball_drop.gltf")
         bodies = {}
         for body_id, body in sim.bodies.items():
             if isinstance(body.spec.shape, Plane):
@@ -380,13 +381,13 @@ def test_demo_gltf_key_button_and_exit(gl, tmp_path):
     app = DemoController(
         gl, load_scene(ROOT / "assets" / "scenes" / "metal_row.toml", lib), lib, (64, 48)
     )
-    app.gltf_path = tmp_path / "demo.glb"
-    assert app.export_gltf()
+    app.export.path = tmp_path / "demo.glb"
+    assert app.export.gltf()
     assert app.message.startswith(f"exported {tmp_path / 'demo.glb'} at t = ")
     assert validate(tmp_path / "demo.glb")[0]["errors"] == 0
     blocker = tmp_path / "file"
     blocker.write_text("")
-    assert not app.export_gltf(blocker / "x.glb")
+    assert not app.export.gltf(blocker / "x.glb")
     assert "cannot" in app.message and "\n" not in app.message
     app.close()
 
@@ -411,7 +412,7 @@ from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
 lib = load_materials()
 window = DemoWindow(load_scene(sys.argv[1], lib), lib, (320, 180), "low")
-window.app.gltf_path = Path(sys.argv[2])
+window.app.export.path = Path(sys.argv[2])
 window._on_key(window.window, glfw.KEY_G, 0, glfw.PRESS, 0)
 print(window.app.message)
 window.run(exit_after=0.05, gltf=Path(sys.argv[3]))

@@ -73,7 +73,7 @@ def _files(tmp_path: Path) -> tuple[Path, Path]:
 def _app(gl, user: Path, scene_path: Path) -> DemoController:
     lib = load_materials([user])
     app = DemoController(gl, load_scene(scene_path, lib), lib, (64, 36))
-    app.watch([user], scene_path)
+    app.reload.watch([user], scene_path)
     return app
 
 
@@ -81,7 +81,7 @@ def _settle(app: DemoController, start: float, seconds: float = 1.0) -> tuple[fl
     """Poll once a frame (60 Hz) from `start` for `seconds`: (when the first line came, lines)."""
     t = start
     while t < start + seconds:
-        lines = app.poll_files(t)
+        lines = app.reload.poll(t)
         if lines:
             return t - start, lines
         t += 1.0 / 60.0
@@ -96,7 +96,7 @@ def test_a_saved_materials_edit_reaches_every_body_and_new_balls_within_a_second
     try:
         for _ in range(3):
             app.sim.step()
-        assert app.poll_files(0.0) == []  # nothing changed
+        assert app.reload.poll(0.0) == []  # nothing changed
         user.write_text(USER.format(density=2 * 7850, restitution=0.3))
         after, lines = _settle(app, 10.0)
         # Two polls POLL_INTERVAL apart settle a change: well within a second of the save.
@@ -229,7 +229,7 @@ def test_two_files_saved_together_are_each_reported(gl, tmp_path):
     second.write_text(USER.split("[materials.putty]")[1].join(["[materials.putty]", ""]))
     lib = load_materials([user, second])
     app = DemoController(gl, load_scene(scene_path, lib), lib, (64, 36))
-    app.watch([user, second], scene_path)
+    app.reload.watch([user, second], scene_path)
     try:
         user.write_text(USER.format(density=7850, restitution=0.4))
         second.write_text(second.read_text().replace("restitution = 0.05", "restitution = 0.07"))
@@ -238,7 +238,7 @@ def test_two_files_saved_together_are_each_reported(gl, tmp_path):
             f"dentdemo: reloaded {user} (2 materials)",
             f"dentdemo: reloaded {second} (1 materials)",
         ]
-        assert app.materials.materials["putty"].restitution == 0.07
+        assert app.sim.materials.materials["putty"].restitution == 0.07
         assert app.sim.bodies["ball"].spec.material.restitution == 0.4
     finally:
         app.close()
@@ -255,7 +255,7 @@ def test_a_preset_a_body_uses_cannot_vanish(gl, tmp_path):
         assert lines[0].startswith(f"{user}: body '{ball}': unknown material 'putty'")
         # Nothing changed: not even the steel that the same save edited.
         assert app.sim.bodies["ball"].spec.material.restitution == 0.6
-        assert "putty" in app.materials.materials
+        assert "putty" in app.sim.materials.materials
     finally:
         app.close()
 
@@ -267,18 +267,18 @@ def test_a_scene_edit_offers_a_reset_to_the_new_scene(gl, tmp_path, capsys):
         scene_path.write_text(SCENE.format(x=0.1) + SECOND_BALL)
         _, lines = _settle(app, 0.0)
         assert lines == [f"dentdemo: {scene_path} changed (4 bodies): reset (R) to load it"]
-        assert app.scene_changed
+        assert app.reload.scene_changed
         assert set(app.sim.bodies) == {"ground", "plate", "ball"}  # offered, not forced
         assert app.sim.world.pose("ball")[0][0] == 0.0
         app.reset()
         assert set(app.sim.bodies) == {"ground", "plate", "ball", "ball_two"}
         assert app.sim.world.pose("ball")[0][0] == pytest.approx(0.1, abs=1e-12)
-        assert not app.scene_changed
+        assert not app.reload.scene_changed
         # An invalid scene edit: the start-up error, and the scene running stays.
         scene_path.write_text(SCENE.format(x=0.0).replace("radius = 0.04", "radius = -1"))
         _, lines = _settle(app, 5.0)
         assert lines == [f"{scene_path}: [body.ball] key 'radius' = -1: must be >= 0.001"]
-        assert not app.scene_changed
+        assert not app.reload.scene_changed
         app.reset()
         assert "ball_two" in app.sim.bodies
     finally:

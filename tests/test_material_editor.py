@@ -47,7 +47,7 @@ def _app(gl, tmp_path: Path, user: Path | None = None) -> DemoController:
     files = [user] if user else []
     lib = load_materials(files)
     app = DemoController(gl, load_scene(scene_path, lib), lib, (64, 36))
-    app.watch(files, scene_path)
+    app.reload.watch(files, scene_path)
     return app
 
 
@@ -143,8 +143,8 @@ def test_the_panel_lists_a_dent_per_plate_material(gl, tmp_path):
     app = _app(gl, tmp_path)
     try:
         app.panel.ball_material, app.panel.ball_radius, app.panel.throw_speed = "steel", 0.04, 6.0
-        dents = {d.plate_material: d for d in app.predicted_dents()}
-        assert sorted(dents) == app.materials.names()
+        dents = {d.plate_material: d for d in app.editor.predicted_dents()}
+        assert sorted(dents) == app.sim.materials.names()
         k_al = 2e5 * (1 / 0.7e9 - 1 / 69e9)
         j = 2 * 7850 * 4 / 3 * math.pi * 0.04**3 * 6.0
         assert dents["aluminium"].plate_m == pytest.approx(k_al * (j - 1.0), rel=1e-12)
@@ -155,10 +155,10 @@ def test_the_panel_lists_a_dent_per_plate_material(gl, tmp_path):
 def test_an_edit_is_used_at_once_with_k_and_y_following(gl, tmp_path):
     app = _app(gl, tmp_path)
     try:
-        app.editor.select(app.materials, "steel")
-        assert app.edit_material("plastic_modulus_Pa", 1.0e9)
-        assert app.edit_material("restitution", 0.2)
-        preset = app.editor.preset
+        app.editor.material.select(app.sim.materials, "steel")
+        assert app.editor.edit("plastic_modulus_Pa", 1.0e9)
+        assert app.editor.edit("restitution", 0.2)
+        preset = app.editor.material.preset
         assert preset.k == pytest.approx(2e5 * (1 / 1.0e9 - 1 / 200e9), rel=1e-12)
         assert preset.Y == pytest.approx(1 / (1 - 0.2) - 1, rel=1e-12)
         # The plate (steel) and a new ball use it, and the prediction follows.
@@ -166,26 +166,26 @@ def test_an_edit_is_used_at_once_with_k_and_y_following(gl, tmp_path):
         ball = app.sim.drop_ball((0, 0.3, 0), material="steel")
         assert app.sim.bodies[ball].spec.material == preset
         app.panel.ball_material = "steel"
-        steel_plate = next(d for d in app.predicted_dents() if d.plate_material == "steel")
+        steel_plate = next(d for d in app.editor.predicted_dents() if d.plate_material == "steel")
         j = 2 * 7850 * 4 / 3 * math.pi * 0.04**3 * app.panel.throw_speed
         assert steel_plate.plate_m == pytest.approx(preset.k * (j - preset.Y), rel=1e-12)
         # An explicit k, then derived again.
-        assert app.edit_material("k_m_per_Ns", 1e-4) and app.editor.preset.k == 1e-4
-        assert app.edit_material("k_m_per_Ns", None) and not app.editor.preset.k_explicit
+        assert app.editor.edit("k_m_per_Ns", 1e-4) and app.editor.material.preset.k == 1e-4
+        assert app.editor.edit("k_m_per_Ns", None) and not app.editor.material.preset.k_explicit
         # Invalid: the validator's line, the last valid preset stays in use.
-        before = app.editor.preset
-        assert not app.edit_material("restitution", 1.0)
-        assert app.editor.error.startswith(
+        before = app.editor.material.preset
+        assert not app.editor.edit("restitution", 1.0)
+        assert app.editor.material.error.startswith(
             "material editor: [materials.steel] key 'restitution' = 1.0: must be < 1 (range [0, 1)"
         )
-        assert app.editor.preset == before == app.sim.bodies["plate"].spec.material
-        assert app.edit_material("restitution", 0.2)  # mended: valid again
-        assert not app.edit_material("density_kg_m3", 1e200)  # issue 46: ODE cannot hold it
-        assert "range [0.1, 100000] kg/m^3" in app.editor.error
-        assert app.edit_material("density_kg_m3", 7850.0), app.editor.error
-        assert not app.edit_material("plastic_modulus_Pa", 300e9)
-        assert "plastic_modulus_Pa" in app.editor.error
-        assert app.edit_material("plastic_modulus_Pa", 1.0e9), app.editor.error
+        assert app.editor.material.preset == before == app.sim.bodies["plate"].spec.material
+        assert app.editor.edit("restitution", 0.2)  # mended: valid again
+        assert not app.editor.edit("density_kg_m3", 1e200)  # issue 46: ODE cannot hold it
+        assert "range [0.1, 100000] kg/m^3" in app.editor.material.error
+        assert app.editor.edit("density_kg_m3", 7850.0), app.editor.material.error
+        assert not app.editor.edit("plastic_modulus_Pa", 300e9)
+        assert "plastic_modulus_Pa" in app.editor.material.error
+        assert app.editor.edit("plastic_modulus_Pa", 1.0e9), app.editor.material.error
     finally:
         app.close()
 
@@ -195,23 +195,23 @@ def test_save_keeps_comments_and_order_and_changes_only_the_edited_line(gl, tmp_
     user.write_text(USER)
     app = _app(gl, tmp_path, user)
     try:
-        app.editor.select(app.materials, "steel")
-        assert app.edit_material("restitution", 0.25)
-        assert app.save_materials(), app.message
+        app.editor.material.select(app.sim.materials, "steel")
+        assert app.editor.edit("restitution", 0.25)
+        assert app.editor.save(), app.message
         text = user.read_text()
         expected = USER.replace("restitution = 0.6     # keep", "restitution = 0.25     # keep")
         assert text == expected
         assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temp
         assert tomllib.loads(text)["materials"]["steel"]["restitution"] == 0.25
         # A shipped preset saved into the user file: appended whole, the file still loads.
-        app.editor.select(app.materials, "copper")
-        assert app.edit_material("friction", 0.45)
-        assert app.save_materials()
+        app.editor.material.select(app.sim.materials, "copper")
+        assert app.editor.edit("friction", 0.45)
+        assert app.editor.save()
         assert user.read_text().startswith(expected)
         assert load_materials([user]).materials["copper"].friction == 0.45
         # The watcher sees the save as any other: the library reloads from the file.
-        app.poll_files(100.0)
-        assert app.poll_files(101.0) == [f"dentdemo: reloaded {user} (3 materials)"]
+        app.reload.poll(100.0)
+        assert app.reload.poll(101.0) == [f"dentdemo: reloaded {user} (3 materials)"]
     finally:
         app.close()
 
@@ -222,12 +222,12 @@ def test_save_without_a_user_file_never_writes_the_shipped_presets(gl, tmp_path,
     before = hashlib.sha256(shipped.read_bytes()).hexdigest()
     app = _app(gl, tmp_path)
     try:
-        app.editor.select(app.materials, "lead")
-        assert app.edit_material("density_kg_m3", 11000.0)
-        assert app.save_materials()
+        app.editor.material.select(app.sim.materials, "lead")
+        assert app.editor.edit("density_kg_m3", 11000.0)
+        assert app.editor.save()
         written = tmp_path / "dentdemo_materials.toml"
         assert load_materials([written]).materials["lead"].density == 11000.0
-        assert app.material_files == (Path("dentdemo_materials.toml"),)
+        assert app.reload.material_files == (Path("dentdemo_materials.toml"),)
     finally:
         app.close()
     assert hashlib.sha256(shipped.read_bytes()).hexdigest() == before
@@ -242,15 +242,15 @@ def test_save_into_a_malformed_file_is_one_error_and_writes_nothing(gl, tmp_path
     app = _app(gl, tmp_path, user)
     try:
         user.write_text(USER + "\n[oops\n")
-        app.editor.select(app.materials, "steel")
-        assert app.edit_material("friction", 0.7)
-        assert not app.save_materials()
+        app.editor.material.select(app.sim.materials, "steel")
+        assert app.editor.edit("friction", 0.7)
+        assert not app.editor.save()
         assert app.message.startswith(f"{user}: malformed TOML")
         assert user.read_text() == USER + "\n[oops\n"
         # An invalid draft is never written either.
         user.write_text(USER)
-        app.edit_material("friction", 11.0)
-        assert not app.save_materials()
+        app.editor.edit("friction", 11.0)
+        assert not app.editor.save()
         assert "friction" in app.message and user.read_text() == USER
     finally:
         app.close()

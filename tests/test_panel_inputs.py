@@ -21,15 +21,8 @@ SIZE_MIN, SIZE_MAX, SPEED_MAX = 0.001, 100.0, 1000.0
 
 
 @pytest.fixture
-def app(gl):
-    from dentdemo.app.controller import DemoController
-    from dentdemo.model.materials import load_materials
-    from dentdemo.model.scene import load_scene
-
-    lib = load_materials()
-    controller = DemoController(gl, load_scene(BALL_DROP, lib), lib, (64, 36))
-    yield controller
-    controller.close()
+def app(ball_drop_app):
+    return ball_drop_app
 
 
 @pytest.mark.parametrize(
@@ -62,11 +55,11 @@ def test_a_click_after_radius_zero_drops_a_one_millimetre_ball(app):
     """The panel field set to 0 (typed, or set by code around the setter): the click drops the
     smallest ball a scene file allows instead of ending the demo."""
     app.panel.ball_radius = 0.0
-    body_id = app.drop_ball(0.0, -0.5)
+    body_id = app.tools.drop_ball(0.0, -0.5)
     assert body_id is not None
     assert app.sim.bodies[body_id].spec.shape.radius == SIZE_MIN
     app.panel.ball_radius = math.nan  # NaN set around the setter: the default radius
-    body_id = app.throw_ball(0.0, 0.0)
+    body_id = app.tools.throw_ball(0.0, 0.0)
     assert app.sim.bodies[body_id].spec.shape.radius == PanelState().ball_radius
 
 

@@ -129,28 +129,28 @@ def test_panel_actions_through_the_controller(gl, tmp_path):
     before = len(app.sim.bodies)
     # Drop: a ball 1 m above the floor point under the screen centre.
     app.panel.ball_material, app.panel.ball_radius = "copper", 0.03
-    ball = app.drop_ball(0.0, 0.0)
+    ball = app.tools.drop_ball(0.0, 0.0)
     assert ball is not None and len(app.sim.bodies) == before + 1
     spec = app.sim.bodies[ball].spec
     assert spec.material.name == "copper" and spec.shape.radius == 0.03
-    floor = app.ground_point(0.0, 0.0)
+    floor = app.tools.ground_point(0.0, 0.0)
     np.testing.assert_allclose(spec.position, floor + [0, 1.0, 0], atol=1e-9)
     # Throw: along the view ray at the panel's speed.
     app.panel.throw_speed = 5.0
-    thrown = app.throw_ball(0.1, -0.1)
+    thrown = app.tools.throw_ball(0.1, -0.1)
     v = np.array(app.sim.bodies[thrown].spec.velocity)
     assert np.linalg.norm(v) == pytest.approx(5.0)
-    _, direction = app.camera.ray(0.1, -0.1, app.renderer.aspect)
+    _, direction = app.view.camera.ray(0.1, -0.1, app.view.renderer.aspect)
     np.testing.assert_allclose(v / 5.0, direction, atol=1e-9)
     # Plate of the panel's material under the orbit target.
     app.panel.plate_material = "copper"
-    plate = app.add_plate()
+    plate = app.tools.add_plate()
     body = app.sim.bodies[plate]
     assert body.spec.material.name == "copper" and body.spec.static
     # A 0.5 m plate at 1024 texels/m: a 512^2 map; its top face at y = 0.02 under the target.
     assert body.maps.size == (512, 512)
     np.testing.assert_allclose(
-        body.spec.position, (app.camera.target[0], 0.02, app.camera.target[2]), atol=1e-12
+        body.spec.position, (app.view.camera.target[0], 0.02, app.view.camera.target[2]), atol=1e-12
     )
     # Pause, single step, time scale.
     app.toggle_pause()
@@ -163,11 +163,11 @@ def test_panel_actions_through_the_controller(gl, tmp_path):
     assert app.update(4 * app.sim.scene.physics.dt) == 2
     # Views and toggles render without error.
     for view in (0, 1, 2):
-        app.set_view(view)
-        app.render()
+        app.view.set_view(view)
+        app.view.render()
     for name in ("parallax", "wireframe", "contacts", "address_map", "shadows"):
-        app.toggle(name)
-        app.render()
+        app.view.toggle(name)
+        app.view.render()
     shot = app.screenshot(tmp_path / "shot.png")
     assert Image.open(shot).size == (320, 180)
     # Reset: back to the scene's bodies.
@@ -308,21 +308,21 @@ def test_close_up_frames_the_last_hit(gl):
     lib = load_materials()
     app = DemoController(gl, load_scene(BALL_DROP, lib), lib, (160, 90))
     try:
-        assert not app.close_up() and app.last_dent_text() == "no dent yet"
+        assert not app.view.close_up() and app.view.last_dent_text() == "no dent yet"
         while app.sim.last_hit is None:
             app.sim.step()
         request = app.sim.last_hit
         hit = request.impact
-        assert app.close_up()
-        offset = app.camera.eye - hit.point
-        np.testing.assert_allclose(app.camera.target, hit.point, atol=1e-12)
+        assert app.view.close_up()
+        offset = app.view.camera.eye - hit.point
+        np.testing.assert_allclose(app.view.camera.target, hit.point, atol=1e-12)
         assert np.linalg.norm(offset) == pytest.approx(0.3, rel=1e-9)
         up = hit.normal if hit.normal[1] >= 0 else -hit.normal
         elevation = np.degrees(np.arcsin(offset @ up / np.linalg.norm(offset)))
         assert elevation == pytest.approx(40.0, abs=1e-6)
         # The deeper dent, from the maps themselves (only this hit has been carved) and from
         # eq. 4 with each material's k and Y worked out of the materials file by hand.
-        text = app.last_dent_text().split()
+        text = app.view.last_dent_text().split()
         assert text[:2] == ["last", "dent"] and text[3:6] == ["mm", "deep", "in"]
         shown_mm, shown_body = float(text[2]), text[6]
         carved = {
@@ -356,13 +356,13 @@ def test_quality_switches_while_the_scene_runs(gl):
         for _ in range(5):
             app.sim.step()
         time_before, bodies = app.sim.world.time, set(app.sim.bodies)
-        assert app.renderer.shade_size == (144, 81)
-        app.set_quality("high")
-        assert app.quality.name == "high" and app.renderer.shade_size == (320, 180)
-        assert app.renderer.size == (320, 180)
+        assert app.view.renderer.shade_size == (144, 81)
+        app.view.set_quality("high")
+        assert app.view.quality.name == "high" and app.view.renderer.shade_size == (320, 180)
+        assert app.view.renderer.size == (320, 180)
         assert app.sim.world.time == time_before and set(app.sim.bodies) == bodies
-        app.render()
-        image = app.renderer.read_rgb()
+        app.view.render()
+        image = app.view.renderer.read_rgb()
         assert len(np.unique(image.reshape(-1, 3), axis=0)) > 200
     finally:
         app.close()
@@ -552,8 +552,8 @@ def test_the_address_map_view_draws_pass_2_for_convex_targets_too(gl):
     it: with the view on, the last carve's tile holds the surface's (u, v) and view depths."""
     lib = load_materials()
     app = DemoController(gl, load_scene(BALL_DROP, lib), lib, (320, 180))
-    app.toggle("address_map")
-    app.render()
+    app.view.toggle("address_map")
+    app.view.render()
     app.sim.drop_ball((0.0, 0.1, 0.0), velocity=(0.0, -3.0, 0.0), radius=0.02)
     for _ in range(40):
         app.sim.step()

@@ -35,7 +35,7 @@ def test_scene_runs_and_dents(gl, path):
             if body.spec.dentable and float(gl.read(body.maps.height).min()) < -1e-6
         ]
         assert len(dented) >= 2, dented
-        image = app.renderer.read_rgb() if app.render() is not None else None
+        image = app.view.renderer.read_rgb() if app.view.render() is not None else None
         assert image is not None and image.shape == (54, 96, 3) and np.ptp(image) > 20
     finally:
         app.close()

@@ -164,18 +164,18 @@ def test_demo_save_and_load_keys_restore_added_bodies(gl, tmp_path):
     lib = load_materials()
     app = DemoController(gl, load_scene(BALL_DROP, lib), lib, (160, 90))
     try:
-        dropped = app.drop_ball(0.0, 0.0)
+        dropped = app.tools.drop_ball(0.0, 0.0)
         assert dropped is not None
         for _ in range(90):
             app.sim.step()
-        assert app.save_state(tmp_path / "s"), app.message
+        assert app.state.save(tmp_path / "s"), app.message
         saved_heights = {k: gl.read(b.maps.height).copy() for k, b in app.sim.bodies.items()}
         saved_pose = app.sim.world.pose(dropped)
         saved_time = app.sim.world.time
-        app.drop_ball(0.3, 0.1)
+        app.tools.drop_ball(0.3, 0.1)
         for _ in range(30):
             app.sim.step()
-        assert app.load_state(tmp_path / "s"), app.message
+        assert app.state.load(tmp_path / "s"), app.message
         assert set(app.sim.bodies) == set(saved_heights)  # the second ball is gone
         assert app.sim.world.time == saved_time
         assert all(
@@ -184,7 +184,7 @@ def test_demo_save_and_load_keys_restore_added_bodies(gl, tmp_path):
         )
         for k, b in app.sim.bodies.items():
             assert np.array_equal(gl.read(b.maps.height), saved_heights[k]), k
-        assert not app.load_state(tmp_path / "nothing_here")
+        assert not app.state.load(tmp_path / "nothing_here")
         assert "nothing_here" in app.message
     finally:
         app.close()

@@ -294,11 +294,11 @@ def test_demo_f9_on_a_damaged_state_is_a_panel_line_and_the_demo_runs_on(gl, sav
         for _ in range(5):
             app.sim.step()
         before = _fingerprint(gl, app.sim)
-        assert not app.load_state(folder)
+        assert not app.state.load(folder)
         assert "'hits' = 'lots'" in app.message and "\n" not in app.message
         assert _fingerprint(gl, app.sim) == before
         app.update(1.0 / 30.0)
-        app.render()
+        app.view.render()
         assert app.sim.world.step_index == 7  # 1/30 s of wall time = two 1/60 s steps
     finally:
         app.close()

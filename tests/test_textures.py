@@ -57,11 +57,11 @@ def test_mesh_texture_is_drawn_where_its_uvs_say(gl, tmp_path, mesh_file):
     )
     try:
         app.sim.step()
-        app.render()
-        image = app.renderer.read_rgb().astype(int)
+        app.view.render()
+        image = app.view.renderer.read_rgb().astype(int)
         for (iu, iv), colour in QUADRANTS.items():
             centre = np.array([0.1 + 0.2 * iu, 0.01, 0.1 + 0.2 * iv])
-            x, y = app.camera.project(centre, app.renderer.aspect, (320, 240))[0]
+            x, y = app.view.camera.project(centre, app.view.renderer.aspect, (320, 240))[0]
             pixel = image[int(y), int(x)]
             # The shaded colour keeps the texture's hue: its strongest channel(s) win.
             strongest = np.argsort(colour)[-1]

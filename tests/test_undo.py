@@ -485,20 +485,20 @@ def test_controller_undo_repair_and_load(gl, tmp_path):
         assert names and all(before[n] == pristine[n] for n in names)
         assert sim.apply_queued(1) == 1
         assert all(_raw(gl, sim.bodies[n].maps) != before[n] for n in names)
-        assert app.undo() and "undid" in app.message
+        assert app.undo.undo() and "undid" in app.message
         assert all(_raw(gl, sim.bodies[n].maps) == before[n] for n in names)
-        assert not app.undo() and app.message == "nothing to undo"
+        assert not app.undo.undo() and app.message == "nothing to undo"
         sim.queue.appendleft(request)  # the same hit again, then repaired
         sim.apply_queued(1)
-        target = app.repair_target()
+        target = app.undo.repair_target()
         assert target in names and _raw(gl, sim.bodies[target].maps) != pristine[target]
-        assert app.repair(target) and app.message == f"repaired {target}"
+        assert app.undo.repair(target) and app.message == f"repaired {target}"
         assert _raw(gl, sim.bodies[target].maps) == pristine[target]
-        assert not app.repair("no_such_body") and "no_such_body" in app.message
-        assert app.save_state(tmp_path / "s"), app.message
-        assert app.load_state(tmp_path / "s"), app.message
+        assert not app.undo.repair("no_such_body") and "no_such_body" in app.message
+        assert app.state.save(tmp_path / "s"), app.message
+        assert app.state.load(tmp_path / "s"), app.message
         assert "undo history is not saved" in app.message
-        assert len(sim.undo_log) == 0 and not app.undo()
+        assert len(sim.undo_log) == 0 and not app.undo.undo()
     finally:
         app.close()
 

@@ -1,6 +1,6 @@
 """The developer tools' imgui window, after G3D's: the selected body (Ctrl + click) with its
 dents, a live view of its height and normal maps, the profiler strip, and the video recorder.
-The logic is the controller's (select_at, map_textures, profiler, toggle_recording)."""
+The logic is the controllers' (app/controllers/tools.py and recording.py)."""
 
 from __future__ import annotations
 
@@ -26,32 +26,33 @@ def dev_window(imgui: Any, app: DemoController) -> None:
     imgui.set_next_window_pos((LEFT, height - MARGIN), imgui.Cond_.first_use_ever, (0.0, 1.0))
     imgui.set_next_window_size((WIDTH, HEIGHT), imgui.Cond_.first_use_ever)
     imgui.begin("developer tools")
-    for line in app.selection_text():
+    tools = app.tools
+    for line in tools.selection_text():
         imgui.text(line)
-    textures = app.map_textures()
+    textures = tools.map_textures()
     if textures is not None:
         # Row 0 of a GL texture is v = 0: shown bottom up, so v = 1 is at the top.
         for texture in textures:
             imgui.image(imgui.ImTextureRef(texture.glo), (MAP_PIXELS, MAP_PIXELS), (0, 1), (1, 0))
             imgui.same_line()
         imgui.new_line()
-        depth_mm = app.options.legend_depth * 1e3
+        depth_mm = app.view.options.legend_depth * 1e3
         imgui.text(f"height (grey 0 to red {depth_mm:g} mm), normals")
     imgui.separator()
     imgui.text(f"ms per frame, the last {HISTORY_SECONDS:g} s (GPU time shows")
     imgui.text("in present: the swap waits for it)")
     for phase in PHASES:
-        values = app.profiler.series(phase)
+        values = tools.profiler.series(phase)
         if len(values):
-            overlay = f"{phase} {app.profiler.mean(phase):.2f} ms"
+            overlay = f"{phase} {tools.profiler.mean(phase):.2f} ms"
             imgui.plot_lines(
                 f"##{phase}", values, 0, overlay, 0.0, graph_size=(WIDTH - 20, PLOT_PIXELS)
             )
     imgui.separator()
-    recording = app.recorder is not None
-    if imgui.button("stop recording (F6)" if recording else "record video (F6)"):
-        app.toggle_recording()
-    if recording and app.recorder is not None:
+    recorder = app.recording.recorder
+    if imgui.button("stop recording (F6)" if recorder is not None else "record video (F6)"):
+        app.recording.toggle()
+    if recorder is not None:
         imgui.same_line()
-        imgui.text(f"{app.recorder.out}: {app.recorder.frames} frames")
+        imgui.text(f"{recorder.out}: {recorder.frames} frames")
     imgui.end()

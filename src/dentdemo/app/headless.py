@@ -48,6 +48,7 @@ def render_headless(
     (app/hitlog.py), written with the maps. `compact_every` (hits) makes `save_state` compact
     (app/compact.py)."""
     from dentdemo.app.controller import DemoController  # loads ODE
+    from dentdemo.app.export import export_gltf, export_maps
     from dentdemo.app.loop import FrameLoop, ImageBackend, Tee, VideoBackend
 
     if frames < 1:
@@ -61,9 +62,9 @@ def render_headless(
     gl = create_headless()
     try:
         app = DemoController(gl, scene, materials, size, denting=denting, quality=quality)
-        app.options = options or RenderOptions()
+        app.view.options = options or RenderOptions()
         fov_deg = fov if fov is not None else scene.camera.fov_deg
-        app.camera = OrbitCamera.from_eye(np.asarray(eye), np.asarray(target), fov_deg)
+        app.view.camera = OrbitCamera.from_eye(np.asarray(eye), np.asarray(target), fov_deg)
         if load_state is not None:
             from dentdemo.app.state import load_state as resume
 
@@ -106,10 +107,10 @@ def render_headless(
             write_log(hit_log, recorder.records)
         if maps_dir is not None:
             interrupt.check()
-            app.sim.export_maps(maps_dir)
+            export_maps(app.sim, maps_dir)
         if gltf is not None:
             interrupt.check()
-            app.sim.export_gltf(gltf)
+            export_gltf(app.sim, gltf)
         app.close()
     finally:
         gl.release()

@@ -6,12 +6,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 from dentdemo.model.scene import BOUNDS
-
-if TYPE_CHECKING:
-    from dentdemo.app.controller import PanelState
 
 #: The demo's time scale, x real time (no scene key: the demo's own bound; 0 stands still).
 TIME_SCALE = (0.0, 4.0)
@@ -22,6 +19,17 @@ PANEL_BOUNDS: dict[str, tuple[float, float]] = {
     "plate_side": (BOUNDS.size_min, BOUNDS.size_max),  # m, as a plate's side
     "throw_speed": (0.0, BOUNDS.speed),  # m/s, as a body's velocity
 }
+
+
+@dataclass
+class PanelState:
+    """What the control panel sets."""
+
+    ball_material: str = "steel"
+    ball_radius: float = 0.04  # m
+    throw_speed: float = 6.0  # m/s
+    plate_material: str = "aluminium"
+    plate_side: float = 0.5  # m
 
 
 def clamped(value: object, bounds: tuple[float, float], previous: float) -> float:

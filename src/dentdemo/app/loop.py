@@ -69,11 +69,13 @@ class FrameLoop:
     def frame(self, last: bool = False, measure: bool = False) -> FrameTiming:
         """Step, render and present one frame."""
         interrupt.check()
-        self.app.poll_files()  # the demo's watched materials and scene files; else nothing
+        self.app.reload.poll()  # the demo's watched materials and scene files; else nothing
         finish = self.app.gl.ctx.finish if measure else _nothing
         start = time.perf_counter()
         wall, self._last = start - self._last, start
-        if self.fixed_dt or self.app.recorder is not None:  # a recording is at the fixed step
+        if (
+            self.fixed_dt or self.app.recording.recorder is not None
+        ):  # a recording is at the fixed step
             if not self.app.paused:
                 self.app.sim.step()
         else:
@@ -82,7 +84,7 @@ class FrameLoop:
         finish()  # the frame's carves done on the GPU
         carved = time.perf_counter()
         self.app.resize(self.backend.size())
-        output = self.app.render(self.backend.target())
+        output = self.app.view.render(self.backend.target())
         finish()
         rendered = time.perf_counter()
         self.backend.present(self.app, output, last)
@@ -96,7 +98,7 @@ class FrameLoop:
             total_ms=(rendered - start) * 1e3,
             present_ms=(presented - rendered) * 1e3,
         )
-        self.app.profiler.add(
+        self.app.tools.profiler.add(
             presented, (timing.physics_ms, timing.carve_ms, timing.render_ms, timing.present_ms)
         )
         return timing
@@ -156,7 +158,7 @@ class VideoBackend(OffscreenBackend):
         self.video = VideoFile(size, out, fps)
 
     def present(self, app: DemoController, output: moderngl.Framebuffer, last: bool) -> None:
-        self.video.add(app.renderer.read_rgb())
+        self.video.add(app.view.renderer.read_rgb())
 
     def finish(self) -> None:
         self.video.finish()
@@ -180,7 +182,7 @@ class ImageBackend(OffscreenBackend):
         if self.out is None or not (self.every_frame or last):
             return
         target = self.out.with_name(self.out.name % index) if self.every_frame else self.out
-        write_png(target, app.renderer.read_rgb())
+        write_png(target, app.view.renderer.read_rgb())
 
 
 class Tee(OffscreenBackend):

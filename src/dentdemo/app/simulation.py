@@ -13,25 +13,25 @@ import moderngl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from dentdemo import outputs
 from dentdemo.app.compact import CompactSaves
 from dentdemo.app.hitlog import HitRecorder
-from dentdemo.app.reshape import DentProxy, proxy_for, shape_field
+from dentdemo.app.proxies import CollisionProxies
 from dentdemo.app.shared import Shared
+from dentdemo.app.stats import DentStats, SimStats
 from dentdemo.app.wear import WearTracker
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, CarverOptions, Press
 from dentdemo.carve.surface import create_maps, load_height_png, map_size_for
-from dentdemo.carve.undo import UNDO_DEPTH, UndoLog, restore_pristine
+from dentdemo.carve.undo import UndoLog, restore_pristine
 from dentdemo.gl.context import GLContext
 from dentdemo.gpu.maps import SurfaceMaps
 from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.mesh import Mesh
-from dentdemo.mesh.shapes import plate_sides, shape_mesh
+from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model.impulse import dent_depth
 from dentdemo.model.materials import MaterialLibrary
 from dentdemo.model.scene import BodySpec, Scene
-from dentdemo.model.shapes import Plane, Plate, Shape, Sphere
+from dentdemo.model.shapes import Plane, Shape, Sphere
 from dentdemo.physics.simulate import build_world
 from dentdemo.physics.world import Impact, PhysicsWorld, pose_matrix
 
@@ -66,26 +66,6 @@ class CarveRequest:
         if self.depth_a >= self.depth_b:
             return self.impact.body_a, self.depth_a
         return self.impact.body_b, self.depth_b
-
-
-@dataclass
-class DentStats:
-    """The dents carved into one body since it was made (or the last reset)."""
-
-    count: int = 0
-    #: The deepest single press, metres (overlapping dents are not summed: the map keeps the
-    #: deepest surface, and is never read back to find it).
-    deepest: float = 0.0
-
-
-@dataclass
-class SimStats:
-    frames: int = 0
-    hits: int = 0
-    impacts: int = 0
-    physics_ms: float = 0.0
-    carve_ms: float = 0.0  # CPU time issuing the last frame's carves (the GPU runs them async)
-    carve_ms_per_hit: float = 0.0
 
 
 def map_side(spec: BodySpec, mesh: Mesh) -> int:
@@ -130,15 +110,13 @@ class Simulation:
         self._time_debt = 0.0
         #: Per body: how many dents and the deepest press (the panel's selection).
         self.dents: dict[str, DentStats] = {}
-        #: Per dynamic body that took a dent: its surface as pressed (its collision shape).
-        self.proxies: dict[str, DentProxy] = {}
+        #: Per dynamic body that took a dent: its surface as pressed (its collision shape),
+        #: with each carved batch's undo record (app/proxies.py).
+        self.proxies = CollisionProxies()
         #: Per shape, the mesh (its query structures built, not at a body's first hit) and its
         #: GPU buffers that every body of that shape draws with: a body's first carve finds
         #: the vertex arrays and index streams the bodies before it made.
         self._meshes: Shared[Shape, tuple[Mesh, GpuMesh]] = Shared(self._make_mesh, _release_mesh)
-        #: Per carved batch, newest last, as deep as the undo log: the proxies it pressed as
-        #: they were before it ((inward, shaped, rebuilt_at), or None: the batch made it).
-        self._proxy_history: deque[dict[str, tuple | None]] = deque(maxlen=UNDO_DEPTH)
         self.bodies: dict[str, SimBody] = {}
         #: Added by HitRecorder.attach (a --hit-log, compact saves): every carve, and what else
         #: changes the maps, as records.
@@ -303,7 +281,6 @@ class Simulation:
         presses = [press for press in map(self._press, taken) if press is not None]
         grooves = self.wear.take(self) if self.wear is not None else []
         if presses or grooves:
-            before: dict[str, tuple | None] = {}  # the proxies as they were, for undo
 
             def follow() -> None:  # reads no map: the carve runs it while its gathers are drawn
                 for request, _ in presses:
@@ -312,16 +289,8 @@ class Simulation:
                         (request.impact.body_b, request.depth_b),
                     ):
                         if depth > 0.0:
-                            stats = self.dents.setdefault(body_id, DentStats())
-                            stats.count += 1
-                            stats.deepest = max(stats.deepest, depth)
-                        if body_id not in before:
-                            p = self.proxies.get(body_id)
-                            before[body_id] = (
-                                None
-                                if p is None
-                                else (p.inward.copy(), p.shaped.copy(), p.rebuilt_at)
-                            )
+                            self.dents.setdefault(body_id, DentStats()).add(depth)
+                        self.proxies.note(body_id)  # as it was, for undo
                     self._follow_dents(request)
 
             # One batch: every hit reads the heights from before it (docs/carve.md, "Batches").
@@ -335,48 +304,12 @@ class Simulation:
             self.carved_points.extend(groove.contact.point for groove in grooves)
             if presses:
                 self.last_hit = presses[-1][0]
-            if len(self.undo_log):
-                self._proxy_history.append(before)
-            else:  # a batch too large to keep empties the log: nothing before it can be undone
-                self._proxy_history.clear()
+            self.proxies.close_batch(kept=len(self.undo_log) > 0)
         return len(taken)
 
     def _follow_dents(self, request: CarveRequest) -> None:
-        """Press the dynamic bodies' collision proxies as the carve pressed their maps, and give
-        a body whose dents grew deep enough its dented surface as its shape (app/reshape.py)."""
-        impact = request.impact
-        sides = (
-            (
-                impact.body_a,
-                request.model_a,
-                impact.body_b,
-                request.model_b,
-                -impact.normal,
-                request.depth_a,
-            ),
-            (
-                impact.body_b,
-                request.model_b,
-                impact.body_a,
-                request.model_a,
-                impact.normal,
-                request.depth_b,
-            ),
-        )
-        for body_id, model, tool_id, tool_model, direction, depth in sides:
-            body, tool = self.bodies.get(body_id), self.bodies.get(tool_id)
-            if depth <= 0.0 or body is None or tool is None or body.spec.static:
-                continue
-            field = shape_field(tool.spec.shape, tool_model)
-            if field is None:
-                continue
-            proxy = self.proxies.get(body_id)
-            if proxy is None:
-                proxy = proxy_for(body.spec.shape, body.mesh)
-                self.proxies[body_id] = proxy
-            proxy.press(model, field, direction, depth, body.spec.material.max_dent_depth)
-            if proxy.due():
-                self.world.set_surface(body_id, *proxy.rebuilt())
+        """Press the collision proxies of the request's bodies (app/proxies.py)."""
+        self.proxies.press(request, self.bodies, self.world)
 
     def advance(self, seconds: float, max_steps: int = 4) -> int:
         """Steps owed for `seconds` of wall time times the time scale (window use)."""
@@ -430,7 +363,7 @@ class Simulation:
         if self.wear is not None:
             self.wear.forget(body_id)
         self.dents.pop(body_id, None)
-        self.proxies.pop(body_id, None)
+        self.proxies.forget(body_id)
         body = self.bodies.pop(body_id)
         self.undo_log.forget(body.maps)
         self._release_body(body)
@@ -444,23 +377,7 @@ class Simulation:
             return False
         for recorder in self.recorders:
             recorder.event(self, "undo")
-        before = self._proxy_history.pop() if self._proxy_history else {}
-        for body_id, saved in before.items():
-            if body_id not in self.bodies:
-                continue
-            if saved is None:  # no proxy before the batch: drop one it made, and its shape
-                made = self.proxies.pop(body_id, None)
-                if made is not None and made.rebuilt_at > 0.0:
-                    self.world.reset_shape(body_id)
-                continue
-            proxy = self.proxies[body_id]
-            reshaped = proxy.rebuilt_at != saved[2]
-            proxy.inward, proxy.shaped, proxy.rebuilt_at = saved
-            if reshaped:
-                if proxy.rebuilt_at > 0.0:
-                    self.world.set_surface(body_id, *proxy.surface())
-                else:
-                    self.world.reset_shape(body_id)
+        self.proxies.undo(self.bodies, self.world)
         return True
 
     def repair(self, body_id: str) -> None:
@@ -475,10 +392,8 @@ class Simulation:
             start = load_height_png(Path(body.spec.bump_map), size, body.spec.bump_height)
         self.undo_log.forget(body.maps)
         restore_pristine(self.gl, body.gpu_mesh, body.maps, start)
-        if self.proxies.pop(body_id, None) is not None:
+        if self.proxies.forget(body_id):
             self.world.reset_shape(body_id)  # its collision shape is the pristine one again
-        for before in self._proxy_history:
-            before.pop(body_id, None)
 
     # -- lifecycle -----------------------------------------------------------------------------
     def reset(self) -> None:
@@ -492,7 +407,6 @@ class Simulation:
         self.last_hit = None
         self.dents.clear()
         self.proxies.clear()
-        self._proxy_history.clear()
         if self.wear is not None:
             self.wear.clear()
         self.stats = SimStats()
@@ -503,42 +417,6 @@ class Simulation:
             recorder.event(self, "reset")
         for spec in self.scene.bodies:
             self._add_render_body(spec)
-
-    def export_maps(self, directory: Path) -> list[Path]:
-        """Write each dentable body's height (.npy, float32 [v, u]) and normals (.png)."""
-        written = []
-        for body_id, body in sorted(self.bodies.items()):
-            if not body.spec.dentable:
-                continue
-            height = self.gl.read(body.maps.height)[:, :, 0]
-            outputs.write_npy(directory / f"{body_id}_height.npy", height)
-            outputs.write_normal_png(
-                directory / f"{body_id}_normal.png", self.gl.read(body.maps.normal)
-            )
-            written += [directory / f"{body_id}_height.npy", directory / f"{body_id}_normal.png"]
-        return written
-
-    def export_gltf(self, path: Path) -> Path:
-        """Every body at its current pose as glTF 2.0 (.glb or .gltf, dentdemo/gltf.py): meshes
-        with tangents, the presets' materials, the meshes' own images, and the normal and height
-        maps of the bodies that take dents, read back from the GPU. The ground plane (infinite)
-        is left out."""
-        from dentdemo.gltf import GltfBody, GltfPart, dented_part, write_gltf
-
-        bodies = []
-        for body_id, body in self.bodies.items():
-            if isinstance(body.spec.shape, Plane):
-                continue
-            look = body.spec.material.appearance
-            parts = [
-                dented_part(self.gl, body.mesh, look, body.maps)
-                if body.spec.dentable
-                else GltfPart(body.mesh, look, name="surface")
-            ]
-            if isinstance(body.spec.shape, Plate):  # its sides: drawn, never dented
-                parts.append(GltfPart(plate_sides(body.spec.shape), look, name="sides"))
-            bodies.append(GltfBody(body_id, self.model(body_id), tuple(parts)))
-        return write_gltf(path, bodies)
 
     def _release_bodies(self) -> None:
         for body in self.bodies.values():

@@ -41,10 +41,10 @@ from dentdemo.app.reshape import DentProxy, proxy_for
 from dentdemo.app.simulation import (
     CARVED_POINTS_KEPT,
     CarveRequest,
-    SimStats,
     Simulation,
     map_side,
 )
+from dentdemo.app.stats import SimStats
 from dentdemo.app.wear import SavedWear, read_wear
 from dentdemo.carve.surface import rebuild_all_normals
 from dentdemo.errors import ArgumentError, DentdemoError

@@ -2,10 +2,10 @@
 
 Mouse: left drag orbits, a left click drops a ball above the clicked point (Ctrl + click selects
 the body there for the developer tools), right drag throws a ball along the view ray (longer
-drags throw harder), middle drag or shift+left drag pans, the wheel zooms. Keys: Space pause,
-N single step, R reset, P screenshot, 1/2/3 shaded/height/normal view, W wireframe, C contacts,
-A address map, X parallax, F close-up on the last dent, F5/F9 save and load the state, F6 record
-video, G export every body to glTF, Ctrl+Z undo the last frame's hits, Esc quit.
+drags throw harder), middle drag or shift+left drag pans, the wheel zooms. The keys are the
+controllers' (`DemoController.keys`: Space pause, N step, R reset, E the material editor, D the
+developer tools, ...) and the window's own: P screenshot, Esc quit. The window opens with the
+main panel only; the editor and the tools open from their keys and the panel's buttons.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from dentdemo.app import inputs
 from dentdemo.app.controller import DemoController
 from dentdemo.app.dev_panel import dev_window
 from dentdemo.app.editor_panel import editor_window
+from dentdemo.app.export import export_gltf
 from dentdemo.app.loop import FrameLoop
 from dentdemo.errors import DentdemoError
 from dentdemo.extras import require_app
@@ -31,6 +32,8 @@ from dentdemo.model.scene import Scene
 from dentdemo.render.quality import PRESETS
 
 CLICK_PIXELS = 4  # a press that moves less than this is a click, not a drag
+#: The window's own keys (the controllers' are DemoController.keys()): screenshot, quit.
+WINDOW_KEYS = ("p", "escape")
 #: The largest framebuffer-to-window scale taken from the platform (HiDPI screens are 1 to 3):
 #: glfw's backend reads the window's size and then the framebuffer's, and a resize landing
 #: between the two (a 40 px wide window, then an 8000 px wide framebuffer) gave 200, at which
@@ -72,6 +75,11 @@ class DemoWindow:
             self.gl, scene, materials, (max(fb[0], 16), max(fb[1], 16)), quality=quality
         )
         self._press: dict[int, tuple[float, float, int]] = {}  # button -> (x, y, modifiers)
+        #: glfw's key code -> the key's name, for every key of the controllers and the window.
+        self._key_names = {
+            getattr(glfw, f"KEY_{name.rpartition('+')[2].upper()}"): name.rpartition("+")[2]
+            for name in [*self.app.keys(), *WINDOW_KEYS]
+        }
         self._last_cursor = (0.0, 0.0)
         self._shots = 0
         self._screenshot_at_end: Path | None = None
@@ -114,13 +122,14 @@ class DemoWindow:
             return
         moved = abs(x - start[0]) + abs(y - start[1])
         click = button == glfw.MOUSE_BUTTON_LEFT and moved < CLICK_PIXELS
+        tools = self.app.tools
         if click and start[2] & glfw.MOD_CONTROL:
-            self.app.select_at(*self._ndc(x, y))
+            tools.select_at(*self._ndc(x, y))
         elif click and not start[2] & glfw.MOD_SHIFT:
-            self.app.drop_ball(*self._ndc(x, y))
+            tools.drop_ball(*self._ndc(x, y))
         elif button == glfw.MOUSE_BUTTON_RIGHT:
             h = glfw.get_window_size(window)[1]
-            self.app.throw_ball(*self._ndc(x, y), strength=0.5 + moved / max(h, 1) * 2)
+            tools.throw_ball(*self._ndc(x, y), strength=0.5 + moved / max(h, 1) * 2)
 
     def _on_cursor(self, window, x, y) -> None:
         glfw = self.glfw
@@ -128,41 +137,29 @@ class DemoWindow:
         self._last_cursor = (x, y)
         left = self._press.get(glfw.MOUSE_BUTTON_LEFT)
         if self._press.get(glfw.MOUSE_BUTTON_MIDDLE) or (left and left[2] & glfw.MOD_SHIFT):
-            self.app.pan(dx, dy)
+            self.app.view.pan(dx, dy)
         elif left:
-            self.app.orbit(dx, dy)
+            self.app.view.orbit(dx, dy)
 
     def _on_scroll(self, window, dx, dy) -> None:
         if not self._ui_wants_mouse():
-            self.app.zoom(dy)
+            self.app.view.zoom(dy)
 
     def _on_key(self, window, key, scancode, action, mods) -> None:
         glfw = self.glfw
         if action != glfw.PRESS or self.imgui.get_io().want_capture_keyboard:
             return
-        actions = {
-            glfw.KEY_SPACE: self.app.toggle_pause,
-            glfw.KEY_N: self.app.single_step,
-            glfw.KEY_R: self.app.reset,
-            glfw.KEY_P: self._screenshot_key,
-            glfw.KEY_F: self.app.close_up,
-            glfw.KEY_F5: self.app.save_state,
-            glfw.KEY_F9: self.app.load_state,
-            glfw.KEY_F6: self.app.toggle_recording,
-            glfw.KEY_G: self.app.export_gltf,
-            glfw.KEY_1: lambda: self.app.set_view(0),
-            glfw.KEY_2: lambda: self.app.set_view(1),
-            glfw.KEY_3: lambda: self.app.set_view(2),
-            glfw.KEY_W: lambda: self.app.toggle("wireframe"),
-            glfw.KEY_C: lambda: self.app.toggle("contacts"),
-            glfw.KEY_A: lambda: self.app.toggle("address_map"),
-            glfw.KEY_X: lambda: self.app.toggle("parallax"),
-            glfw.KEY_ESCAPE: lambda: glfw.set_window_should_close(window, True),
-        }
-        if key == glfw.KEY_Z and mods & glfw.MOD_CONTROL:
-            self.app.undo()
-        elif key in actions:
-            actions[key]()
+        name = self._key_names.get(key)
+        if name is None:
+            return
+        if mods & glfw.MOD_CONTROL and f"ctrl+{name}" in self.app.keys():
+            name = f"ctrl+{name}"
+        if name == "p":
+            self._screenshot_key()
+        elif name == "escape":
+            glfw.set_window_should_close(window, True)
+        else:
+            self.app.press(name)
 
     def _screenshot_key(self) -> None:
         self._shots += 1
@@ -170,9 +167,9 @@ class DemoWindow:
         try:
             self.screenshot(path)
         except DentdemoError as exc:  # a folder that cannot be written: a panel line
-            self.app.message = str(exc).splitlines()[0]
+            self.app.status.say(str(exc).splitlines()[0])
             return
-        self.app.message = f"wrote {path}"
+        self.app.status.say(f"wrote {path}")
 
     # -- panel ---------------------------------------------------------------------------------
     def _panel(self, fps: float, frame_ms: float) -> None:
@@ -185,7 +182,7 @@ class DemoWindow:
         pos, size = imgui.get_window_pos(), imgui.get_window_size()
         self._panel_rect = (pos.x, pos.y, size.x, size.y)
         imgui.push_item_width(200)  # controls on the left half, labels readable on the right
-        names = app.materials.names()
+        names = app.sim.materials.names()
         _, index = imgui.combo("ball material", names.index(p.ball_material), names)
         p.ball_material = names[index]
         # Drags, not sliders: no grab handle over the value (drag sideways, or double-click
@@ -203,65 +200,79 @@ class DemoWindow:
         _, index = imgui.combo("new plate material", names.index(p.plate_material), names)
         p.plate_material = names[index]
         if imgui.button("add plate at target"):
-            app.add_plate()
+            app.tools.add_plate()
         imgui.same_line()
-        if imgui.button("reset to the new scene (R)" if app.scene_changed else "reset (R)"):
+        if imgui.button("reset to the new scene (R)" if app.reload.scene_changed else "reset (R)"):
             app.reset()
         changed, scale = imgui.drag_float(
-            "time scale (x real time)", app.sim.time_scale, 0.01, 0.0, 2.0, "%.2f x"
+            "time scale (set)", app.sim.time_scale, 0.01, 0.0, 2.0, "%.2f x real time"
         )
         if changed:
             app.set_time_scale(scale)
+        imgui.text(app.rate.text(app.sim.time_scale, app.paused))
         if imgui.button("resume" if app.paused else "pause"):
             app.toggle_pause()
         imgui.same_line()
         if imgui.button("step"):
             app.single_step()
         if imgui.button("close-up on last dent (F)"):
-            app.close_up()
-        imgui.text(app.last_dent_text())
+            app.view.close_up()
+        imgui.text(app.view.last_dent_text())
         if imgui.button("undo (Ctrl+Z)"):
-            app.undo()
-        repair = app.repair_target()
+            app.undo.undo()
+        repair = app.undo.repair_target()
         if repair is not None:
             imgui.same_line()
             if imgui.button(f"repair {repair}"):
-                app.repair(repair)
+                app.undo.repair(repair)
         if imgui.button("save state (F5)"):
-            app.save_state()
+            app.state.save()
         imgui.same_line()
         if imgui.button("load state (F9)"):
-            app.load_state()
+            app.state.load()
         imgui.same_line()
         if imgui.button("export glTF (G)"):
-            app.export_gltf()
+            app.export.gltf()
         if app.message:
             imgui.text_wrapped(app.message)
         imgui.separator()
-        _, app.options.view = imgui.combo(
-            "view", app.options.view, ["shaded", "height map", "normal map"]
+        view = app.view
+        _, view.options.view = imgui.combo(
+            "view", view.options.view, ["shaded", "height map", "normal map"]
         )
         presets = list(PRESETS)
-        changed, index = imgui.combo("quality", presets.index(app.quality.name), presets)
+        changed, index = imgui.combo("quality", presets.index(view.quality.name), presets)
         if changed:
-            app.set_quality(presets[index])
+            view.set_quality(presets[index])
         for name in ("parallax", "wireframe", "contacts", "address_map", "shadows"):
-            changed, _ = imgui.checkbox(name.replace("_", " "), getattr(app.options, name))
+            changed, _ = imgui.checkbox(name.replace("_", " "), getattr(view.options, name))
             if changed:
-                app.toggle(name)
+                view.toggle(name)
         changed, denting = imgui.checkbox("denting", app.sim.denting)
         if changed:
             app.sim.denting = denting
         imgui.separator()
         s = app.sim.stats
-        imgui.text(f"fps {fps:.1f}   frame {frame_ms:.2f} ms   quality {app.quality.name}")
+        imgui.text(f"fps {fps:.1f}   frame {frame_ms:.2f} ms   quality {view.quality.name}")
         imgui.text(f"physics {s.physics_ms:.2f} ms   carve {s.carve_ms_per_hit:.2f} ms/hit")
         imgui.text(f"hits {s.hits}   impacts {s.impacts}   queued {len(app.sim.queue)}")
         imgui.text(f"bodies {len(app.sim.bodies)}   t = {app.sim.world.time:.2f} s")
+        imgui.separator()
+        if imgui.button(
+            "close the material editor (E)" if app.editor.visible else "material editor (E)"
+        ):
+            app.editor.toggle()
+        imgui.same_line()
+        if imgui.button(
+            "close the developer tools (D)" if app.tools.visible else "developer tools (D)"
+        ):
+            app.tools.toggle()
         imgui.pop_item_width()
         imgui.end()
-        editor_window(imgui, app)
-        dev_window(imgui, app)
+        if app.editor.visible:
+            editor_window(imgui, app)
+        if app.tools.visible:
+            dev_window(imgui, app)
 
     # -- loop ----------------------------------------------------------------------------------
     def screenshot(self, path: Path) -> Path:
@@ -291,7 +302,7 @@ class DemoWindow:
             loop.run(until_time=exit_after)
             early = exit_after is not None and not self._finished
             if gltf is not None and not early:
-                self.app.sim.export_gltf(gltf)
+                export_gltf(self.app.sim, gltf)
             stopped_at = self.app.sim.world.time
         finally:
             self.close()
@@ -323,9 +334,9 @@ class DemoWindow:
         glfw, imgui, ctx = self.glfw, self.imgui, self.gl.ctx
         now = time.perf_counter()
         wall, self._presented = now - self._presented, now
-        if app.recorder is not None:  # the scene, without the panel
+        if app.recording.recorder is not None:  # the scene, without the panel
             w, h = self.size()
-            app.record_frame(self.gl.read_framebuffer(ctx.screen, 3)[::-1][:h, :w])
+            app.recording.record_frame(self.gl.read_framebuffer(ctx.screen, 3)[::-1][:h, :w])
         flush()  # the rasteriser finishes the frame while the panel is built
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()

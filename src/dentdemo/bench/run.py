@@ -444,7 +444,7 @@ def window_frames(
     try:
         loop = FrameLoop(window.app, window, fixed_dt=False)
         for quality in presets:
-            window.app.set_quality(quality)  # the panel's "quality"
+            window.app.view.set_quality(quality)  # the panel's "quality"
             for count in body_counts:
                 window.app.reset()
                 drop_balls(window.app, count)

@@ -103,13 +103,14 @@ def run(args: argparse.Namespace) -> int:
         why = str(exc).removeprefix("dentdemo: ")
         return _headless_instead(args, path, scene.physics.dt, exit_after, why)
     if gltf is not None:
-        window.app.gltf_path = gltf
-    window.app.selected = args.select
+        window.app.export.path = gltf
+    window.app.tools.selected = args.select
+    window.app.tools.visible = args.select is not None  # --select opens the tools
     if args.compact_state is not None:
         from dentdemo.app.state import enable_compact_saves
 
         enable_compact_saves(window.app.sim, args.compact_state)
-    window.app.watch([Path(p) for p in args.materials], path)
+    window.app.reload.watch([Path(p) for p in args.materials], path)
     if args.materials:  # files the user named (the scene is watched too, silently)
         watched = [*args.materials, path]
         log.warn(f"dentdemo: watching {', '.join(map(str, watched))}: saved changes apply live")

@@ -46,13 +46,14 @@ def run(args: argparse.Namespace) -> int:
     gl = create_headless()
     try:
         from dentdemo.app.controller import DemoController  # loads ODE
+        from dentdemo.app.export import export_maps
 
         app = DemoController(gl, scene, materials, args.size)
         start = time.perf_counter()
         hits = replay(app.sim, records, places)
         gl.ctx.finish()
         seconds = time.perf_counter() - start
-        app.sim.export_maps(maps_dir)
+        export_maps(app.sim, maps_dir)
         if out is not None:
             app.screenshot(out)
         app.close()
