@@ -338,3 +338,37 @@ def test_a_swept_box_hull_holds_the_box_and_the_prism_it_sweeps():
     across = 0.2 * abs(math.sin(motion + yaw)) + 0.2 * abs(math.cos(motion + yaw))
     assert volume == pytest.approx(0.2 * 0.1 * 0.2 + across * 0.1 * np.linalg.norm(shift))
     assert mesh.bound is not None and len(mesh.bound.triangles) == len(mesh.indices)
+
+
+def test_a_compact_save_after_a_scratch_holds_it(gl, tmp_path):
+    """Compact saves keep a checkpoint and the hit log since it; a scratch is no hit record, so
+    a batch with one makes the next save a checkpoint: loaded, the maps are the saved run's
+    bit for bit, and the run goes on as one that never stopped."""
+    from dentdemo.app.state import enable_compact_saves, load_state, save_state
+
+    def skid(sim, steps):
+        for _ in range(steps):
+            sim.step()
+
+    one = _sandbox(gl, tmp_path / "one", 1e5)
+    try:
+        enable_compact_saves(one)
+        skid(one, 10)
+        one.world.set_velocity("ball", (2.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        skid(one, 12)
+        saved = _plate_heights(one)
+        assert (saved < 0).any()
+        save_state(one, tmp_path / "saved")
+        skid(one, 20)
+        expected = _plate_heights(one)
+    finally:
+        one.close()
+    two = _sandbox(gl, tmp_path / "two", 1e5)
+    try:
+        enable_compact_saves(two)
+        load_state(two, tmp_path / "saved")
+        assert (_plate_heights(two) == saved).all()
+        skid(two, 20)
+        assert (_plate_heights(two) == expected).all()
+    finally:
+        two.close()
