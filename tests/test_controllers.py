@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import re
+import time
 from pathlib import Path
 
 import pytest
@@ -98,6 +99,26 @@ def test_the_panel_shows_the_real_rate_when_the_world_falls_behind(app):
     assert "behind" not in app.rate.text(app.sim.time_scale, app.paused)
     app.toggle_pause()
     assert app.rate.text(app.sim.time_scale, app.paused) == "paused"
+
+
+def test_fixed_step_frames_measure_the_rate_too(app):
+    """--exit-after and a recording step one dt a frame: the rate is the scene's dt over each
+    frame's wall time, never the time scale set (before a frame: nothing is claimed)."""
+    from dentdemo.app.loop import FrameLoop, ImageBackend
+
+    assert app.rate.text(app.sim.time_scale, app.paused) == "rate: measuring"
+    before = time.perf_counter()
+    loop = FrameLoop(app, ImageBackend((64, 36), None), fixed_dt=True)
+    after = time.perf_counter()
+    for _ in range(3):
+        loop.frame()
+    third = time.perf_counter()
+    loop.frame()
+    fourth = time.perf_counter()
+    # A frame's wall time runs from the frame before's start (the first's from the loop's
+    # making): four frames' span from the loop's making to the fourth frame's start.
+    dt = app.sim.scene.physics.dt
+    assert 4 * dt / (fourth - before) <= app.rate.rate() <= 4 * dt / (third - after)
 
 
 def test_features_work_on_a_simulation_alone(gl, tmp_path):

@@ -73,11 +73,11 @@ class FrameLoop:
         finish = self.app.gl.ctx.finish if measure else _nothing
         start = time.perf_counter()
         wall, self._last = start - self._last, start
-        if (
-            self.fixed_dt or self.app.recording.recorder is not None
-        ):  # a recording is at the fixed step
+        if self.fixed_dt or self.app.recording.recorder is not None:  # a recording: fixed step
             if not self.app.paused:
                 self.app.sim.step()
+            # One dt a frame however long the frame took: slow frames run behind real time.
+            self.app.rate.add(wall, 0.0 if self.app.paused else self.app.sim.scene.physics.dt)
         else:
             self.app.update(wall)
         stepped = time.perf_counter()

@@ -41,7 +41,7 @@ class RealRate:
         if paused:
             return "paused"
         if rate is None:
-            return f"{scale:.2f} x real time"
+            return "rate: measuring"
         if rate < scale * (1.0 - BEHIND):
             return f"runs at {rate:.2f} x real time (behind the {scale:.2f} x set: slow frames)"
         return f"runs at {rate:.2f} x real time"
