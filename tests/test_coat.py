@@ -100,3 +100,16 @@ def test_a_coated_part_exports_both_textures():
     plain = GltfPart(plate(0.2), Appearance(), None, height, -0.01, "surface")
     document, _ = build([GltfBody("plate", np.eye(4), (plain,))])
     assert "metallicRoughnessTexture" not in document["materials"][0]["pbrMetallicRoughness"]
+
+
+def test_a_coated_part_without_dents_exports_the_coat():
+    """A plate's sides (no maps): painted all over, as the renderer draws them (height 0)."""
+    from dentdemo.gltf import GltfBody, GltfPart, build
+    from dentdemo.mesh.primitives import plate
+
+    look = Appearance(base_colour=(0.9, 0.9, 0.9), metalness=1.0, coat_thickness=1e-4)
+    look = replace(look, coat_colour=RED, coat_roughness=0.7)
+    document, _ = build([GltfBody("plate", np.eye(4), (GltfPart(plate(0.2), look),))])
+    pbr = document["materials"][0]["pbrMetallicRoughness"]
+    assert pbr["baseColorFactor"] == [*RED, 1.0]
+    assert pbr["metallicFactor"] == 0.0 and pbr["roughnessFactor"] == 0.7

@@ -27,7 +27,7 @@ import base64
 import json
 import struct
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -312,6 +312,13 @@ class _Builder:
 
     def material(self, part: GltfPart, name: str, base_coords: int) -> int:
         look = part.look
+        if look.coat_thickness > 0.0 and part.height_map is None:  # undented: the coat alone
+            look = replace(
+                look,
+                base_colour=look.coat_colour,
+                metalness=look.coat_metalness,
+                roughness=look.coat_roughness,
+            )
         pbr: dict[str, Any] = {
             "baseColorFactor": [*(float(c) for c in look.base_colour), 1.0],
             "metallicFactor": float(look.metalness),
