@@ -138,18 +138,22 @@ class ScratchSetup:
             body.gpu_mesh.release()
 
 
-def auto_map_size(side: float, groove: Groove) -> int:
+def auto_map_size(target: Shape, groove: Groove) -> int:
     """A target map side whose texels put TEXELS_PER_HALF_WIDTH across the groove's half-width,
-    within [MIN_AUTO_MAP, MAX_AUTO_MAP]."""
+    within [MIN_AUTO_MAP, MAX_AUTO_MAP] (a plate's side, a cube's three faces, span its map)."""
     if groove.half_width <= 0:
         return MIN_AUTO_MAP
-    wanted = math.ceil(side * TEXELS_PER_HALF_WIDTH / groove.half_width)
+    metres_per_uv = max(shape_mesh(target, Tessellation.press(2)).uv_scale())
+    wanted = math.ceil(metres_per_uv * TEXELS_PER_HALF_WIDTH / groove.half_width)
     return int(min(max(wanted, MIN_AUTO_MAP), MAX_AUTO_MAP))
 
 
-def plate_for(drag: Drag, groove: Groove) -> Plate:
-    """A plate that holds the whole groove with a margin of its own width each side."""
-    return Plate(drag.distance_m + 6.0 * max(groove.half_width, 1e-4))
+def target_for(kind: str, drag: Drag, groove: Groove, tool: Shape) -> Shape:
+    """A plate, or a cube, whose upper face holds the whole groove with a margin of its own
+    width each side (and, a box tool, its print)."""
+    extent = tool.size[2] if isinstance(tool, Box) else 0.0
+    side = drag.distance_m + extent + 6.0 * max(groove.half_width, 1e-4)
+    return Box((side, side, side)) if kind == "box" else Plate(side)
 
 
 def _pose(rotation: NDArray[np.float64], centre: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -247,7 +251,7 @@ def measure(height: NDArray[np.float32], setup: ScratchSetup) -> dict:
     texel's area) and, over the path's straight part (its ends' prints left out), its depth
     along the path and its cross-section against the tool's circle (or flat) at depth d."""
     tu, tv = setup.target.maps.texel_metres
-    measured = float(-height.astype(np.float64).sum() * tu * tv)
+    measured = 0.0 - float(height.astype(np.float64).sum() * tu * tv)  # 0, not -0, undented
     groove, drag = setup.groove, setup.drag
     predicted = groove.predicted_volume(drag.distance_m)
     result: dict = {
@@ -261,8 +265,8 @@ def measure(height: NDArray[np.float32], setup: ScratchSetup) -> dict:
         "cross_section_m2": groove.area,
         "grooved_texels": int((height < GROOVED).sum()),
     }
-    if groove.depth <= 0:
-        return result
+    if groove.depth <= 0 or not isinstance(setup.target_shape, Plate):
+        return result  # a cube's texels lie in its atlas's cells: its volume alone
     along, off = _path_coordinates(height.shape, setup)
     reach = groove.half_width + 2.0 * max(tu, tv)
     straight = (along > reach + _end_reach(setup)) & (

@@ -59,7 +59,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=0.0,
         help="the path's direction on the target, degrees from +x towards +z",
     )
-    p.add_argument("--target", choices=("plate",), default="plate", help="target shape")
+    p.add_argument(
+        "--target",
+        choices=("plate", "box"),
+        default="plate",
+        help="target shape: a plate, or a cube, sized to hold the path (the groove's cross-section "
+        "is measured on a plate)",
+    )
     p.add_argument(
         "--target-material", default="aluminium", metavar="NAME", help="the target's preset"
     )
@@ -89,10 +95,11 @@ def run(args: argparse.Namespace) -> int:
         carve_groove,
         groove_for,
         make_scratch,
-        plate_for,
+        target_for,
         write_scratch,
     )
     from dentdemo.gl.context import create_headless
+    from dentdemo.mesh.shapes import Tessellation, shape_mesh
     from dentdemo.model.materials import load_materials
     from dentdemo.outputs import write_height_png
 
@@ -102,9 +109,9 @@ def run(args: argparse.Namespace) -> int:
     material = load_materials(args.materials).get(args.target_material, "--target-material")
     drag = Drag(args.load, args.distance, args.speed, 0.0 if args.roll else args.slip)
     groove = groove_for(tool, material, drag)
-    plate = plate_for(drag, groove)
-    map_size = args.map_size or auto_map_size(plate.side, groove)
-    texel = plate.side / map_size
+    target = target_for(args.target, drag, groove, tool)
+    map_size = args.map_size or auto_map_size(target, groove)
+    texel = max(shape_mesh(target, Tessellation.press(2)).uv_scale()) / map_size
     if groove.depth >= material.max_dent_depth:
         raise DentdemoError(
             f"--load/--distance: the groove would be {groove.depth:g} m deep, past "
@@ -120,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     render = check_output_file("--render", args.render, PNG) if args.render is not None else None
     gl = create_headless()
     try:
-        setup = make_scratch(gl, plate, tool, material, drag, map_size, math.radians(args.heading))
+        setup = make_scratch(gl, target, tool, material, drag, map_size, math.radians(args.heading))
         carved = carve_groove(gl, setup)
         summary = write_scratch(gl, setup, out, carved)
         summary["target_material"] = args.target_material
