@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 from dentdemo.app.controller import DemoController
+from dentdemo.app.export import export_maps
 from dentdemo.app.hitlog import HitRecorder, Replayer
 from dentdemo.gl.context import GLContext, create_headless
 from dentdemo.model import hitlog
@@ -74,7 +75,7 @@ def send(scene_file: Path, frames: int, out_dir: Path) -> int:
     pipe.close()
     elapsed = time.perf_counter() - start
     mine = out_dir / "sender"
-    app.sim.export_maps(mine)
+    export_maps(app.sim, mine)
     app.screenshot(out_dir / "sender.png")
     app.close()
     gl.release()
@@ -110,7 +111,7 @@ def receive(scene_file: Path, out_dir: Path) -> int:
         print("replicate: the stream ended before its end record", file=sys.stderr)
         return 1
     replayer.finish()
-    app.sim.export_maps(out_dir / "receiver")
+    export_maps(app.sim, out_dir / "receiver")
     app.screenshot(out_dir / "receiver.png")
     app.close()
     gl.release()
