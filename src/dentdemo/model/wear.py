@@ -5,6 +5,7 @@ newtons, pascals), no GL."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 #: Bisection steps for a groove's depth: the bracket [0, R] halves each step, so 60 steps put
 #: the depth within R * 2^-60 (below float64's resolution of it) of the root.
@@ -60,14 +61,7 @@ def sphere_groove_depth(radius: float, area: float) -> float:
     half_disc = math.pi * radius * radius / 2.0
     if area >= half_disc:
         return radius + (area - half_disc) / (2.0 * radius)
-    lo, hi = 0.0, radius
-    for _ in range(DEPTH_STEPS):
-        mid = 0.5 * (lo + hi)
-        if segment_area(radius, mid) < area:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
+    return _bisect(lambda d: segment_area(radius, d), area, radius)
 
 
 def box_groove_depth(width: float, area: float) -> float:
@@ -115,10 +109,15 @@ def section_depth(section: list[tuple[float, float]], area: float) -> float:
     if area >= whole:
         width = max(x for x, _ in section) - min(x for x, _ in section)
         return top + (area - whole) / max(width, 1e-30)
-    lo, hi = 0.0, top
+    return _bisect(lambda d: section_area(section, d), area, top)
+
+
+def _bisect(area_at: Callable[[float], float], area: float, deepest: float) -> float:
+    """The depth in [0, `deepest`] where the increasing `area_at` reaches `area`, m."""
+    lo, hi = 0.0, deepest
     for _ in range(DEPTH_STEPS):
         mid = 0.5 * (lo + hi)
-        if section_area(section, mid) < area:
+        if area_at(mid) < area:
             lo = mid
         else:
             hi = mid
