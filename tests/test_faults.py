@@ -208,7 +208,11 @@ def test_a_recording_without_frames_writes_nothing(gl, tmp_path, capsys):
 _SAVER = """
 import sys
 from pathlib import Path
+from dentdemo import outputs
 from dentdemo.outputs import write_folder
+# Each saver leaves its predecessors' folders (as killed saves before this fix did), so that
+# the kills pile them up: the save under test must remove them all.
+outputs.remove_leftovers = lambda *args, **kwargs: []
 files = {"state.json": b"{}" * 1000, "a.npy": bytes(4 << 20), "b.npy": bytes(4 << 20)}
 print("ready", flush=True)
 while True:
@@ -231,6 +235,7 @@ def test_killed_saves_leave_folders_the_next_save_removes_and_a_load_keeps(tmp_p
         time.sleep(rng.uniform(0.0, 0.08))
         saver.send_signal(signal.SIGKILL)
         saver.wait()
+        saver.stdout.close()
     hidden = sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("."))
     assert hidden and all(name.startswith(".S.") and name.endswith(".new") for name in hidden)
     before = sorted(p.name for p in tmp_path.rglob("*"))

@@ -195,8 +195,16 @@ def hold(path: Path) -> int:
     """An open descriptor holding an exclusive lock on the temporary `path` (a file or a folder)
     while its writer lives: `remove_leftovers` of another writer leaves it alone. The lock goes
     with the process, however it ends."""
-    fd = os.open(path, os.O_RDONLY)
-    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return _locked(os.open(path, os.O_RDONLY))
+
+
+def _locked(fd: int) -> int:
+    """`fd`, locked where the file system has locks (where it has none, no writer there can
+    tell a living writer's file from a killed one's, and `_unheld` removes nothing)."""
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        pass
     return fd
 
 
@@ -355,8 +363,7 @@ def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
     remove_leftovers(str(path), path, TEMPORARY, fresh=False)
     try:
         fd, tmp = temporary_beside(path)
-        lock = os.dup(fd)  # holds the lock until the rename, after the file is closed
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        lock = _locked(os.dup(fd))  # held until the rename, after the file is closed
     except OSError as exc:
         raise DentdemoError(f"{path}: cannot write ({_why(exc)})") from None
     try:
