@@ -507,3 +507,45 @@ def test_an_output_that_is_a_link_is_written_through_it(tmp_path, monkeypatch, c
     assert target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link.png", "real"]
     assert sorted(p.name for p in (tmp_path / "real").iterdir()) == ["r.png"]
+
+
+def test_the_editors_save_to_a_fifo_is_one_line_and_never_blocks(tmp_path):
+    """The material editor's "save to file" read the file it edits: a FIFO there froze the
+    window. It is refused at once (run in a thread: a blocked open would keep it alive)."""
+    from dentdemo.app.materials_save import save_preset
+    from dentdemo.errors import ConfigError
+    from dentdemo.model.materials import load_materials, material_table
+
+    fifo = tmp_path / "mine.toml"
+    os.mkfifo(fifo)
+    lib = load_materials()
+    table = material_table(lib.materials["lead"])
+    seen: list[str] = []
+
+    def save() -> None:
+        try:
+            save_preset(fifo, "lead", table, lib.calibration)
+        except ConfigError as exc:
+            seen.append(str(exc))
+
+    thread = threading.Thread(target=save, daemon=True)
+    thread.start()
+    thread.join(timeout=10.0)
+    if thread.is_alive():
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))  # end the blocked read
+        thread.join(timeout=10.0)
+        raise AssertionError("the save opened the FIFO and blocked")
+    assert seen == [f"{fifo}: cannot read: a FIFO, not a regular file"]
+    assert stat.S_ISFIFO(fifo.stat().st_mode)
+
+
+def test_a_killed_writes_temporary_file_is_removed_by_the_next_write(tmp_path, monkeypatch, capsys):
+    """A PNG written atomically and killed before its rename leaves `.r.png.<random>.tmp`;
+    the next write of r.png removes it and says so once."""
+    monkeypatch.chdir(tmp_path)
+    dead = tmp_path / ".r.png.ab12cd34.tmp"
+    dead.write_bytes(b"half a png")
+    assert main([*RENDER, "--out", "r.png"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"dentdemo: removed 1 leftover of an interrupted write of 'r.png' ({dead.name})"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.png"]

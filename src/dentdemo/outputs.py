@@ -242,8 +242,9 @@ def remove_leftovers(flag: str, path: Path, suffix: str, fresh: bool = True) -> 
     if removed:
         names = ", ".join(p.name for p in removed[:3]) + (", ..." if len(removed) > 3 else "")
         what = "leftover" if len(removed) == 1 else "leftovers"
+        who = "" if flag == str(path) else f"{flag}: "
         log.warn(
-            f"dentdemo: {flag}: removed {len(removed)} {what} of an interrupted write of "
+            f"dentdemo: {who}removed {len(removed)} {what} of an interrupted write of "
             f"'{path}' ({names})"
         )
     return removed

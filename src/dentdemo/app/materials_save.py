@@ -16,6 +16,7 @@ from dentdemo.model.materials import (
     builtin_materials_path,
     parse_material,
 )
+from dentdemo.model.validate import TOML_MAX, read_input
 
 
 def save_preset(path: Path, name: str, table: dict[str, Any], calibration: Calibration) -> Path:
@@ -35,9 +36,11 @@ def save_preset(path: Path, name: str, table: dict[str, Any], calibration: Calib
         )
     preset = parse_material(str(path), name, table, calibration)  # nothing invalid is written
     try:
-        text = path.read_text(encoding="utf-8") if path.exists() else ""
+        text = read_input(path, TOML_MAX).decode("utf-8") if path.exists() else ""
         doc = tomlkit.parse(text)
-    except (OSError, UnicodeDecodeError) as exc:
+    except OSError as exc:  # a FIFO (never opened: it would freeze the window), a device
+        raise ConfigError(str(path), "", f"cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
         raise ConfigError(str(path), "", f"cannot read: {exc}") from None
     except TOMLKitError as exc:
         raise ConfigError(str(path), "", f"malformed TOML: {exc}") from None
