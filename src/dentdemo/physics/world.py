@@ -241,6 +241,7 @@ class PhysicsWorld:
         self._feedback: list = []
         #: This substep's sliding pairs: (A, B, feedback slice, slip m/s, contact geom fields).
         self._sliding: list[tuple] = []
+        self._feedback_used = 0
 
     # -- bodies --------------------------------------------------------------------------------
     def add_body(self, spec: BodySpec, mesh_arrays: tuple[NDArray, NDArray] | None = None) -> None:
@@ -420,6 +421,7 @@ class PhysicsWorld:
         sub_dt = self.spec.dt / self.spec.substeps
         for _ in range(self.spec.substeps):
             self._sliding = []
+            self._feedback_used = 0
             fast.space_collide(self._space_addr, None, self._callback)
             if self._callback_error is not None:  # Ctrl-C or a bug inside the callback
                 error, self._callback_error = self._callback_error, None
@@ -535,7 +537,8 @@ class PhysicsWorld:
         slip = self._slip_speed(a, b, px, py, pz, n)
         if slip <= SLIP_MIN:
             return
-        first = sum(len(entry[2]) for entry in self._sliding)
+        first = self._feedback_used
+        self._feedback_used += len(joints)
         while len(self._feedback) < first + len(joints):
             self._feedback.append(ode.dJointFeedback())
         records = self._feedback[first : first + len(joints)]
