@@ -78,6 +78,9 @@ SLOW_CASES = {
     "bump-rgba_white_is_the_bump_height",
     "bump-8bit_white_is_the_bump_height",
     "flags-save_state_replaces_an_earlier_state_whole",
+    "bump-16bit_white_is_the_bump_height",
+    "flags-load_state_missing",
+    "flags-press_misses",
 }
 
 

@@ -106,6 +106,7 @@ def box_press(gl, carver, size: int, depth: float, offset: float = 0.0):
     return h, exit.reshape(h.shape), inside.reshape(h.shape), wall.reshape(h.shape)
 
 
+@pytest.mark.slow
 def test_an_angled_box_press_dents_to_the_swept_box(gl, carver):
     # Item 1: the trailing wedge's wall lines up with the box's outline as the camera sees it
     # (the camera looks along the press), where the nearest camera pixel stood in for the tool:
@@ -129,6 +130,7 @@ def test_an_angled_box_press_dents_to_the_swept_box(gl, carver):
         previous = h
 
 
+@pytest.mark.slow
 def test_a_box_edge_inside_the_outline_is_followed_at_any_alignment(gl, carver):
     # Item 3's leading edge: texels of the last column under the swept box leave it through its
     # bottom face just past its leading bottom edge, which the camera sees inside the box's
@@ -146,6 +148,7 @@ def test_a_box_edge_inside_the_outline_is_followed_at_any_alignment(gl, carver):
         assert -h.min() <= exit.max() + ROUNDING
 
 
+@pytest.mark.slow
 def test_an_exit_past_the_cameras_view_is_bounded_by_it(gl, carver):
     # Item 2: at 2048² a texel near the wedge's wall, moved by its view-line estimate, leaves the
     # camera's view; that estimate (d / cos 30°, 5.773 mm) was kept as its depth. The camera

@@ -26,6 +26,7 @@ def _shrunk(mask: np.ndarray, pixels: int) -> np.ndarray:
     return out
 
 
+@pytest.mark.slow
 def test_a_dent_deeper_than_the_coat_shows_the_metal(gl):
     """A 5 cm ball pressed 1 mm into an aluminium plate with a 0.4 mm red coat: bare metal
     (grey: red close to green) inside the disc where the cap is deeper than 0.4 mm, radius

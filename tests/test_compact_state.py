@@ -59,6 +59,7 @@ def _busy_run(sim, saves_at: list[int], save) -> None:  # noqa: ANN001 - save(si
     [(1000, 90), (4, 90), (20, 80)],
     ids=["log only", "a new checkpoint", "checkpoint and log"],
 )
+@pytest.mark.slow
 def test_a_compact_save_resumes_bit_for_bit(gl, tmp_path, every, second):
     from dentdemo.app.state import enable_compact_saves, load_state, save_state
 
@@ -93,6 +94,7 @@ def test_a_compact_save_resumes_bit_for_bit(gl, tmp_path, every, second):
     assert [k for k in want if want[k] != got[k]] == []
 
 
+@pytest.mark.slow
 def test_ball_drop_after_600_frames_saves_ten_times_smaller(gl, tmp_path):
     """The issue's measure: the compact folder against the full one, and both load to the same
     heights (the compact one to the same normals as well: they are the carve's, not rebuilt)."""
@@ -118,6 +120,7 @@ def test_ball_drop_after_600_frames_saves_ten_times_smaller(gl, tmp_path):
     assert any(np.frombuffer(v, np.float32).min() < 0 for v in loaded["compact"].values())
 
 
+@pytest.mark.slow
 def test_a_full_state_loaded_with_compact_saves_on_is_the_checkpoint(gl, tmp_path):
     from dentdemo.app.state import enable_compact_saves, load_state, save_state
 
@@ -180,6 +183,7 @@ BROKEN = {
 
 
 @pytest.mark.parametrize("how", sorted(BROKEN))
+@pytest.mark.slow
 def test_a_bad_compact_state_is_one_line_and_changes_nothing(gl, tmp_path, how):
     from dentdemo.app.state import load_state
     from dentdemo.errors import DentdemoError
@@ -200,6 +204,7 @@ def test_a_bad_compact_state_is_one_line_and_changes_nothing(gl, tmp_path, how):
     sim.close()
 
 
+@pytest.mark.slow
 def test_compact_saves_replace_each_other_in_one_folder(gl, tmp_path):
     """The demo's F5 saves again and again to one folder, with a checkpoint made between."""
     from dentdemo.app.state import enable_compact_saves, load_state, save_state
@@ -219,12 +224,14 @@ def test_compact_saves_replace_each_other_in_one_folder(gl, tmp_path):
     other.close()
 
 
+@pytest.mark.slow
 def test_compact_state_needs_save_state(tmp_path):
     result = dentdemo("render", "--frames", 1, "--out", tmp_path / "r.png", "--compact-state")
     assert result.returncode != 0 and "--compact-state" in result.stderr
     assert not (tmp_path / "r.png").exists()
 
 
+@pytest.mark.slow
 def test_render_saves_and_loads_a_compact_state(tmp_path):
     """By the commands: render --save-state --compact-state, then --load-state continues it to
     the maps a straight render of all the frames writes, byte for byte."""

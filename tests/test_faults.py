@@ -37,6 +37,7 @@ def _kind(path: Path) -> str:
 
 
 @needs_namespace
+@pytest.mark.slow
 def test_render_over_a_device_node_leaves_the_device_and_exits_1(tmp_path):
     """`render --out /dev/null` renamed a 1,068-byte PNG over /dev/null as root. Here the nodes
     are made in a tmpfs of a private namespace: null, full, and a link to null named .png."""
@@ -106,6 +107,7 @@ def test_render_over_a_fifo_or_socket_refuses_in_one_line(tmp_path, monkeypatch,
 
 
 @needs_namespace
+@pytest.mark.slow
 def test_outputs_in_a_folder_that_cannot_be_written_are_refused_before_any_work(tmp_path):
     """A read-only file system, /sys and /proc: every writer's folder is tried by making its
     temporary file (or folder) before any work. 100,000 frames or a whole
@@ -153,6 +155,7 @@ def _fill(folder: Path, free_kib: int) -> str:
 
 
 @needs_namespace
+@pytest.mark.slow
 def test_a_video_on_a_full_disk_keeps_the_old_file_and_exits_1(tmp_path):
     """An MP4 (and a GIF) whose disk fills while it is written: ffmpeg's "Error writing trailer"
     left an 8 kB file without its moov box over the good one, exit 0. Now the old file stays
@@ -220,6 +223,7 @@ while True:
 """
 
 
+@pytest.mark.slow
 def test_killed_saves_leave_folders_the_next_save_removes_and_a_load_keeps(tmp_path):
     """40 SIGKILLs during saves of S left `.S.<random>.new` folders (20 of them, 89 MB after 72
     kills) that nothing removed or mentioned. A load (refused here: the state is a fake) writes
@@ -255,6 +259,7 @@ def test_killed_saves_leave_folders_the_next_save_removes_and_a_load_keeps(tmp_p
     assert (state / "state.json").is_file()
 
 
+@pytest.mark.slow
 def test_a_killed_videos_file_is_removed_by_the_next_render_to_it(tmp_path, capsys):
     """`.v.mp4.<random>.mp4` of a killed video was never removed. The next render of v.mp4
     removes it (saying so), leaves a living writer's alone and touches no other hidden file."""
@@ -279,6 +284,7 @@ def test_a_killed_videos_file_is_removed_by_the_next_render_to_it(tmp_path, caps
 
 
 @needs_namespace
+@pytest.mark.slow
 def test_endless_and_blocking_inputs_are_one_line_within_a_second(tmp_path):
     """/dev/zero (a device node of the test's own namespace; a link to it) and a FIFO as a
     scene, a materials file or a saved map: each was read until memory ran out (a MemoryError
@@ -410,6 +416,7 @@ print(json.dumps(lines))
 
 
 @needs_namespace
+@pytest.mark.slow
 def test_demo_keys_in_a_read_only_folder_are_panel_lines(xvfb, tmp_path):
     """Started in a read-only folder, P (screenshot) and G (glTF) killed the demo with
     `OSError: Read-only file system`, while F5 showed a panel line. All three are panel lines
@@ -479,6 +486,7 @@ print(json.dumps({"scale": scale, "atlas": atlas}))
 
 
 @pytest.mark.parametrize("raced", [200.0, 1000.0])
+@pytest.mark.slow
 def test_a_resize_storm_cannot_exhaust_the_font_atlas(xvfb, raced):
     """Issue 46 item 9: once in five resize storms the window died in imgui.new_frame() with
     "IM_ASSERT Out of texture memory" (imgui_freetype.cpp:532): a resize between glfw's two

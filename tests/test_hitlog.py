@@ -71,6 +71,7 @@ def _live_run(gl):
 
 
 @pytest.mark.parametrize("form", ["binary", "json lines"])
+@pytest.mark.slow
 def test_a_replayed_log_carves_the_live_maps_bit_for_bit(gl, form):
     from dentdemo.app.hitlog import replay
 
@@ -105,6 +106,7 @@ def test_a_replayed_log_carves_the_live_maps_bit_for_bit(gl, form):
         live.close()
 
 
+@pytest.mark.slow
 def test_replay_stops_where_the_log_stops_before_a_reset(gl):
     """The records up to the reset give the maps the live run had just before it."""
     from dentdemo.app.hitlog import replay
@@ -120,6 +122,7 @@ def test_replay_stops_where_the_log_stops_before_a_reset(gl):
         copy.close()
 
 
+@pytest.mark.slow
 def test_the_binary_log_of_ball_drop_takes_under_200_bytes_a_hit(gl):
     from dentdemo.app.hitlog import HitRecorder
 
@@ -257,6 +260,7 @@ def test_a_bad_log_is_one_line_naming_the_record(case):
     assert expected in message, message
 
 
+@pytest.mark.slow
 def test_replay_of_a_log_naming_a_body_the_scene_lacks_carves_nothing(gl, tmp_path):
     """Found in the log's body records before any batch: the hits before it are not carved."""
     from dentdemo.app.hitlog import HitRecorder
@@ -280,6 +284,7 @@ def test_replay_of_a_log_naming_a_body_the_scene_lacks_carves_nothing(gl, tmp_pa
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_render_then_replay_gives_byte_identical_maps(tmp_path):
     """The issue's check, by the commands: render --hit-log, then replay, same .npy bytes."""
     log = tmp_path / "h.ddhl"
@@ -359,6 +364,7 @@ def test_a_host_carver_logs_its_presses_and_replay_repeats_them(gl):
     replayer.release()
 
 
+@pytest.mark.slow
 def test_the_replication_example_ends_with_equal_maps(tmp_path):
     """examples/replicate.py: a sender process simulates and streams records through a pipe,
     a receiver process only carves them; the sender compares both sides' map files."""
@@ -376,6 +382,7 @@ def test_the_replication_example_ends_with_equal_maps(tmp_path):
     assert sender and any(np.load(p).min() < 0 for p in sender if p.suffix == ".npy")
 
 
+@pytest.mark.slow
 def test_the_demo_writes_its_hit_log_when_it_ends(tmp_path):
     """Without a display the demo renders headless; --hit-log is written there too."""
     import os

@@ -90,6 +90,7 @@ def _texel_coordinates(height, side, heading):
     "heading,map_size",
     [(0.0, 512), (30.0, 512), (-72.0, 2048)],  # 2048: three segments meet along the path
 )
+@pytest.mark.slow
 def test_a_dragged_sphere_wears_archards_volume_on_the_shipped_steel(gl, heading, map_size):
     """A 10 mm ball pressed with 5 kN along 50 mm of the shipped steel preset: the groove holds
     K F s / H (K, H of the preset, by hand) plus the two half caps at its ends, within 5 %; its
@@ -145,6 +146,7 @@ def test_a_dragged_box_cuts_a_flat_groove(gl):
     assert -height[inside] == pytest.approx(depth, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_the_scratch_command_rolls_without_wear_and_drags_with(tmp_path):
     """`dentdemo scratch`: rolling without slip wears nothing (volume 0, no texel lowered);
     dragged, the summary's measured / predicted is within 5 %."""
@@ -164,6 +166,7 @@ def test_the_scratch_command_rolls_without_wear_and_drags_with(tmp_path):
     assert (tmp_path / "drag.png").stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_the_scratch_command_scratches_a_cube_too(tmp_path):
     """On a cube's top face (one of its atlas's six cells): the same volume, within 5 %."""
     base = ["scratch", "--tool-size", "0.01", "--load", "5000", "--distance", "0.05"]
@@ -187,6 +190,7 @@ def test_the_scratch_command_scratches_a_cube_too(tmp_path):
         (["--load", "1e9", "--distance", "50", "--target-material", "lead"], "max_dent_depth"),
     ],
 )
+@pytest.mark.slow
 def test_the_scratch_command_refuses_bad_input(tmp_path, args, fragment):
     result = dentdemo("scratch", *args, "--out", tmp_path / "out")
     assert result.returncode != 0

@@ -178,6 +178,7 @@ def test_a_rolling_ball_leaves_no_scratch(gl, tmp_path):
         sim.close()
 
 
+@pytest.mark.slow
 def test_a_scratch_is_undone_with_its_batch_and_bounded_by_the_map(gl, tmp_path):
     """Grooves go through the frame's carve batch: undo takes a frame's groove back bit for bit,
     and a groove deeper than the material's max_dent_depth_m (0.01 m here) stops there."""
@@ -285,6 +286,7 @@ def _crate_sandbox(gl, tmp_path, scale: float, yaw_deg: float):
 
 
 @pytest.mark.parametrize("yaw", [0.0, 30.0])
+@pytest.mark.slow
 def test_a_sliding_crate_wears_a_flat_groove_as_wide_as_it_is_across(gl, tmp_path, yaw):
     """A 10 x 6 x 6 cm box slid along +x on its face (yawed about y) slips v0^2 / (2 mu g)
     under m g until friction stops it: Archard's volume times the scale, spread over a groove
@@ -340,6 +342,7 @@ def test_a_swept_box_hull_holds_the_box_and_the_prism_it_sweeps():
     assert mesh.bound is not None and len(mesh.bound.triangles) == len(mesh.indices)
 
 
+@pytest.mark.slow
 def test_a_compact_save_after_a_scratch_holds_it(gl, tmp_path):
     """Compact saves keep a checkpoint and the hit log since it; a scratch is no hit record, so
     a batch with one makes the next save a checkpoint: loaded, the maps are the saved run's
