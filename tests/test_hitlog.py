@@ -14,7 +14,7 @@ import pytest
 
 from cli_helpers import dentdemo
 from dentdemo.model import hitlog
-from dentdemo.model.hitlog import Body, Event, Hit, HitLogError
+from dentdemo.model.hitlog import Body, Event, Groove, Hit, HitLogError
 from dentdemo.model.materials import load_materials
 from dentdemo.model.scene import load_scene
 
@@ -191,6 +191,32 @@ def _records() -> list:
         ),
         Event(9, "repair", 0),
         Event(10, "reset"),
+        Groove(
+            11,
+            2,
+            0,
+            0.01,
+            0.015,
+            (),
+            matrix,
+            matrix[::-1],
+            (0.1, 0.0, -0.0),
+            (0.0, -1.0, 0.0),
+            AWKWARD[1],
+        ),
+        Groove(
+            11,
+            2,
+            1,
+            0.0,
+            0.0,
+            tuple(np.linspace(-0.1, 0.1, 48)),
+            matrix,
+            matrix,
+            (0.0, 0.0, 0.0),
+            (0.0, -1.0, 0.0),
+            2e-5,
+        ),
     ]
 
 
@@ -201,8 +227,8 @@ def test_records_come_back_bit_for_bit(form):
     back = hitlog.parse(data, "log")
     assert back == records
     for a, b in zip(records, back, strict=True):
-        if isinstance(a, Hit):
-            for x, y in zip(hitlog._hit_numbers(a), hitlog._hit_numbers(b), strict=True):
+        if isinstance(a, Hit | Groove):
+            for x, y in zip(hitlog._numbers(a), hitlog._numbers(b), strict=True):
                 assert _bits(x) == _bits(y)  # -0.0 stays -0.0, subnormals stay
 
 
@@ -394,3 +420,34 @@ def test_the_demo_writes_its_hit_log_when_it_ends(tmp_path):
     assert run.returncode == 0, run.stderr
     records = hitlog.parse(log.read_bytes(), str(log))
     assert sum(isinstance(r, Hit) for r in records) > 0
+
+
+def test_a_scraped_scene_replays_its_grooves_bit_for_bit(gl):
+    """Scratches are records too (groove records: the swept tool, both poses, the depth):
+    scrape.toml's skidding balls (capsules) and sliding crate (a box's hull) replay to the
+    live maps."""
+    from dentdemo.app.hitlog import HitRecorder, replay
+    from dentdemo.app.simulation import Simulation
+
+    lib = load_materials()
+    scene = load_scene(ROOT / "assets" / "scenes" / "scrape.toml", lib)
+    live = Simulation(gl, scene, lib)
+    recorder = HitRecorder()
+    recorder.attach(live)
+    _steps(live, 150)
+    live.apply_queued()
+    grooves = [r for r in recorder.records if isinstance(r, Groove)]
+    assert any(g.points for g in grooves) and any(not g.points for g in grooves)
+    want = _maps(live)
+    live.close()
+    records = hitlog.parse(hitlog.to_bytes(recorder.records), "log")
+    copy = Simulation(gl, load_scene(ROOT / "assets" / "scenes" / "scrape.toml", lib), lib)
+    try:
+        replay(copy, records)
+        got = _maps(copy)
+        assert [k for k in want if want[k] != got[k]] == []
+        fresh = Simulation(gl, load_scene(ROOT / "assets" / "scenes" / "scrape.toml", lib), lib)
+        assert _maps(fresh)["plate"] != want["plate"]  # the plate was scratched
+        fresh.close()
+    finally:
+        copy.close()

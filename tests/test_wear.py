@@ -344,9 +344,9 @@ def test_a_swept_box_hull_holds_the_box_and_the_prism_it_sweeps():
 
 @pytest.mark.slow
 def test_a_compact_save_after_a_scratch_holds_it(gl, tmp_path):
-    """Compact saves keep a checkpoint and the hit log since it; a scratch is no hit record, so
-    a batch with one makes the next save a checkpoint: loaded, the maps are the saved run's
-    bit for bit, and the run goes on as one that never stopped."""
+    """Compact saves keep a checkpoint and the hit log since it, whose groove records hold the
+    scratches: loaded, the maps are the saved run's bit for bit, and the run goes on as one
+    that never stopped."""
     from dentdemo.app.state import enable_compact_saves, load_state, save_state
 
     def skid(sim, steps):

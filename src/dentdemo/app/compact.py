@@ -61,19 +61,14 @@ class CompactSaves:
     every_hits: int = EVERY_HITS
     recorder: HitRecorder = field(default_factory=HitRecorder)
     checkpoint: Checkpoint | None = None
-    #: The maps hold a carve the log cannot (a scratch, app/wear.py): the next save makes a
-    #: checkpoint, whatever the log's length.
-    stale: bool = False
 
     def due(self) -> bool:
-        """A save now makes a new checkpoint (the log is long enough, or cannot rebuild the
-        maps)."""
-        return self.stale or self.recorder.hits >= max(self.every_hits, 1)
+        """A save now makes a new checkpoint (the log is long enough)."""
+        return self.recorder.hits >= max(self.every_hits, 1)
 
     def checkpoint_now(self, sim: Simulation, checkpoint: Checkpoint) -> None:
         """`checkpoint` is `sim` as it is now: the log starts again from it."""
         self.checkpoint = checkpoint
-        self.stale = False
         self.recorder.restart(sim)
 
     def contents(self) -> tuple[dict[str, Any], dict[str, bytes]]:

@@ -12,11 +12,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dentdemo import log, outputs
+from dentdemo.app.wear import Carved, GrooveTool, GrooveTools, press_of
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Press
 from dentdemo.errors import DentdemoError
 from dentdemo.model import hitlog, shapes
-from dentdemo.model.hitlog import Body, Event, Hit, HitLogError, Record
+from dentdemo.model.hitlog import Body, Event, Groove, Hit, HitLogError, Record
 from dentdemo.model.scene import BodySpec
 from dentdemo.model.validate import read_input
 
@@ -62,6 +63,7 @@ class HitRecorder:
     sink: Callable[[Record], None] | None = None
     keep: bool = True
     records: list[Record] = field(default_factory=list)
+    #: Carves recorded: hits and groove segments.
     hits: int = 0
     _index: dict[str, int] = field(default_factory=dict)
     _next: int = 0
@@ -103,7 +105,7 @@ class HitRecorder:
     def resume(self, records: Sequence[Record]) -> None:
         """Go on from `records` (a loaded log, replayed): the same declarations and numbering."""
         self.records = list(records)
-        self.hits = sum(isinstance(r, Hit) for r in records)
+        self.hits = sum(isinstance(r, Hit | Groove) for r in records)
         self._index.clear()
         self._added = set()
         self._batch = 0
@@ -114,7 +116,7 @@ class HitRecorder:
                 self._next = max(self._next, record.index + 1)
                 if record.spec.get("added"):
                     self._added.add(record.id)
-            elif isinstance(record, Hit):
+            elif isinstance(record, Hit | Groove):
                 self._batch = record.batch + 1
             elif record.kind == "reset":
                 self._index.clear()
@@ -137,12 +139,20 @@ class HitRecorder:
         self._next += 1
         return self._next - 1
 
-    def batch(self, sim: Simulation, requests: Sequence[CarveRequest]) -> None:
-        """One carved batch: a hit record per request, in the batch's order."""
+    def batch(
+        self,
+        sim: Simulation,
+        requests: Sequence[CarveRequest],
+        grooves: Sequence[Carved] = (),
+    ) -> None:
+        """One carved batch: a hit record per request, then a groove record per scratch
+        segment (app/wear.py), in the batch's order."""
         frame = self.frame(sim)
         for request in requests:  # every body of the batch declared before its first hit
             self._declare(sim, request.impact.body_a)
             self._declare(sim, request.impact.body_b)
+        for carved in grooves:
+            self._declare(sim, carved.worn)
         for request in requests:
             impact = request.impact
             self.emit(
@@ -159,7 +169,24 @@ class HitRecorder:
                     float(request.depth_b),
                 )
             )
-        self.hits += len(requests)
+        for carved in grooves:
+            tool = carved.tool
+            self.emit(
+                Groove(
+                    frame,
+                    self._batch,
+                    self._index[carved.worn],
+                    tool.radius,
+                    tool.length,
+                    () if tool.points is None else tuple(float(x) for x in tool.points.ravel()),
+                    hitlog.matrix_pose(carved.model),
+                    hitlog.matrix_pose(carved.tool_model),
+                    _vec3(carved.contact.point),
+                    _vec3(carved.contact.direction),
+                    float(carved.depth),
+                )
+            )
+        self.hits += len(requests) + len(grooves)
         self._batch += 1
 
     def stop(self, sim: Simulation, why: str) -> None:
@@ -294,14 +321,18 @@ class Replayer:
         self._ids: dict[int, str] = {}
         self._pending: list[Press] = []
         self._batch = -1
+        self._tools: GrooveTools | None = None
 
     def apply(self, record: Record, at: str) -> None:
         sim = self.sim
-        if isinstance(record, Hit):
+        if isinstance(record, Hit | Groove):
             if record.batch != self._batch:
                 self._flush()
                 self._batch = record.batch
-            self._pending.append(_press(sim, self._ids, record))
+            if isinstance(record, Hit):
+                self._pending.append(_press(sim, self._ids, record))
+            else:
+                self._pending.append(press_of(sim, self._carved(record), self._groove_tools()))
             return
         self._bodies.see(record, at)
         self._flush()
@@ -320,7 +351,7 @@ class Replayer:
             sim.bodies[self._ids[record.body]].maps.max_dent_depth = record.value
 
     def finish(self) -> int:
-        """Carve the last batch; returns the hits carved in all."""
+        """Carve the last batch; returns the hits and groove segments carved in all."""
         self._flush()
         return self.carved
 
@@ -329,6 +360,30 @@ class Replayer:
             self.sim.carver.carve_many(self._pending)
             self.carved += len(self._pending)
             self._pending = []
+            if self._tools is not None:
+                self._tools.next_batch()  # the batch's swept boxes are carved
+
+    def _groove_tools(self) -> GrooveTools:
+        if self._tools is None:
+            self._tools = GrooveTools(self.sim.gl)
+        return self._tools
+
+    def _carved(self, g: Groove) -> Carved:
+        points = np.array(g.points, dtype=np.float64).reshape(16, 3) if g.points else None
+        return Carved(
+            self._ids[g.target],
+            GrooveTool(g.radius, g.length, points),
+            hitlog.pose_matrix(g.target_pose),
+            hitlog.pose_matrix(g.tool_pose),
+            ContactFrame(np.array(g.point), np.array(g.direction)),
+            g.depth,
+        )
+
+    def release(self) -> None:
+        """The swept tools this replay made."""
+        if self._tools is not None:
+            self._tools.release()
+            self._tools = None
 
 
 def replay(
@@ -345,9 +400,12 @@ def replay(
     for at, record in zip(where, records, strict=True):
         bodies.see(record, at)
     replayer = Replayer(sim, present)
-    for at, record in zip(where, records, strict=True):
-        replayer.apply(record, at)
-    return replayer.finish()
+    try:
+        for at, record in zip(where, records, strict=True):
+            replayer.apply(record, at)
+        return replayer.finish()
+    finally:
+        replayer.release()
 
 
 def _press(sim: Simulation, ids: dict[int, str], hit: Hit) -> Press:

@@ -295,14 +295,9 @@ class Simulation:
 
             # One batch: every hit reads the heights from before it (docs/carve.md, "Batches").
             self.carver.carve_many([press for _, press in presses] + grooves, meanwhile=follow)
-            saves = self.compact_saves
-            for recorder in list(self.recorders):
-                if not grooves:
-                    recorder.batch(self, [request for request, _ in presses])
-                elif saves is not None and recorder is saves.recorder:
-                    saves.stale = True  # the next save makes a checkpoint of the maps
-                else:  # a groove's tool is no body of the scene: no hit record holds it
-                    recorder.stop(self, "scratches are not recorded in a hit log")
+            carved = self.wear.taken if grooves and self.wear is not None else []
+            for recorder in self.recorders:
+                recorder.batch(self, [request for request, _ in presses], carved)
             self.carved_points.extend(request.impact.point for request, _ in presses)
             self.carved_points.extend(groove.contact.point for groove in grooves)
             if presses:

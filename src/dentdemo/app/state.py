@@ -704,7 +704,7 @@ def _compact(
         records, places = hitlog.parse_placed(data, str(folder / LOG_FILE))
     except hitlog.HitLogError as exc:
         raise DentdemoError(str(exc)) from None
-    if hits != sum(isinstance(r, hitlog.Hit) for r in records):
+    if hits != sum(isinstance(r, hitlog.Hit | hitlog.Groove) for r in records):
         raise h.fail("hits", f"is {hits}; {LOG_FILE} holds another number")
     found: dict[str, Any] = {"log": tuple(records), "log_places": tuple(places)}
     if top.has("checkpoint") and top.raw("checkpoint") is not None:

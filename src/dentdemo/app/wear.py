@@ -80,6 +80,89 @@ class Groove:
     corners: NDArray[np.float64] | None = None
 
 
+@dataclass(frozen=True)
+class GrooveTool:
+    """The solid a groove segment is pressed with, as a hit log records it: a sphere of
+    `radius` swept along `length` (a capsule), or, with `points`, the hull of a box's corners
+    at both ends of the segment (16 x 3 float64, the worn body's frame, metres)."""
+
+    radius: float = 0.0
+    length: float = 0.0
+    points: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True)
+class Carved:
+    """A groove segment as carved: the worn body, its tool, the worn body's pose and the tool's
+    (world from local), the contact and the depth (metres)."""
+
+    worn: str
+    tool: GrooveTool
+    model: NDArray[np.float64]
+    tool_model: NDArray[np.float64]
+    contact: ContactFrame
+    depth: float
+
+
+class GrooveTools:
+    """Swept tools on the GPU: capsules made once per size and kept, box hulls made per batch
+    and released at the next (`next_batch`). The carve and a hit log's replay share them."""
+
+    def __init__(self, gl: GLContext) -> None:
+        self.gl = gl
+        self._tools: dict[tuple[float, float, float], tuple[GpuMesh, SurfaceMaps]] = {}
+        self._meshes: dict[tuple[float, float], Mesh] = {}
+        #: The swept boxes of the last batch (one hull each), released at the next.
+        self._hulls: list[tuple[GpuMesh, SurfaceMaps]] = []
+
+    def next_batch(self) -> None:
+        """The swept boxes of the batch before are released: it has been carved."""
+        for gpu, maps in self._hulls:
+            maps.release()
+            gpu.release()
+        self._hulls = []
+
+    def body(self, tool: GrooveTool, worn: SurfaceMaps, model: NDArray[np.float64]) -> CarveBody:
+        """`tool` on the GPU, posed `model`; its texels no coarser than `worn`'s."""
+        texel = min(worn.texel_metres)
+        if tool.points is None:
+            gpu, maps = self._capsule(tool.radius, tool.length, texel)
+            return CarveBody(gpu, maps, model)
+        mesh = hull_mesh(tool.points, "swept box")
+        gpu = GpuMesh(self.gl, mesh)
+        with warnings.catch_warnings():  # capped on purpose: only its pitch matters
+            warnings.simplefilter("ignore")
+            texels = map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX)
+        hull = (gpu, create_maps(self.gl, gpu, _power_of_two(texels), 0.0))
+        self._hulls.append(hull)
+        return CarveBody(gpu, hull[1], model)
+
+    def _capsule(self, radius: float, length: float, texel: float) -> tuple[GpuMesh, SurfaceMaps]:
+        """The capsule swept by a sphere of `radius` along `length`, its texels no coarser than
+        `texel` (a power-of-two map side, up to TOOL_MAP_MAX); made once per size."""
+        mesh = self._meshes.get((radius, length))
+        if mesh is None:
+            mesh = self._meshes[(radius, length)] = shape_mesh(
+                Capsule(radius, length), Tessellation()
+            )
+        side = _power_of_two(map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX))
+        key = (radius, length, float(side))
+        held = self._tools.get(key)
+        if held is None:
+            gpu = GpuMesh(self.gl, mesh)
+            held = (gpu, create_maps(self.gl, gpu, side, 0.0))
+            self._tools[key] = held
+        return held
+
+    def release(self) -> None:
+        self.next_batch()
+        for gpu, maps in self._tools.values():
+            maps.release()
+            gpu.release()
+        self._tools.clear()
+        self._meshes.clear()
+
+
 class WearTracker:
     """Per (worn body, tool body), the volume worn along the tool's path; grooves waiting for
     the next carve batch in `pending`."""
@@ -93,10 +176,9 @@ class WearTracker:
         self.worn: dict[str, float] = {}
         #: Groove segments handed to the carve so far.
         self.carved = 0
-        self._tools: dict[tuple[float, float, float], tuple[GpuMesh, SurfaceMaps]] = {}
-        self._meshes: dict[tuple[float, float], Mesh] = {}
-        #: The swept boxes of the last batch (one hull each), released at the next.
-        self._hulls: list[tuple[GpuMesh, SurfaceMaps]] = []
+        self.tools = GrooveTools(gl)
+        #: The last `take`'s segments, in its order (a hit log records them).
+        self.taken: list[Carved] = []
 
     def observe(self, sim: Simulation, slides: dict[tuple[str, str], Slide]) -> None:
         """One physics step's slides: wear builds up along each path; a path long enough, or
@@ -180,26 +262,20 @@ class WearTracker:
             self.pending.append(groove)
 
     def take(self, sim: Simulation) -> list[Press]:
-        """The pending grooves as presses (their worn body posed as it is now), and none left.
-        The swept boxes of the batch before are released: it has been carved."""
-        for gpu, maps in self._hulls:
-            maps.release()
-            gpu.release()
-        self._hulls = []
-        presses = []
+        """The pending grooves as presses (their worn body posed as it is now), and none left;
+        `taken` describes them. The swept boxes of the batch before are released."""
+        self.tools.next_batch()
+        self.taken = []
         for groove in self.pending:
             body = sim.bodies.get(groove.worn)
             if body is None:
                 continue
-            model = sim.model(groove.worn)
-            presses.append(self._press(body.gpu_mesh, body.maps, model, groove))
+            self.taken.append(self._carved(body.maps, sim.model(groove.worn), groove))
         self.pending = []
-        self.carved += len(presses)
-        return presses
+        self.carved += len(self.taken)
+        return [press_of(sim, c, self.tools) for c in self.taken]
 
-    def _press(
-        self, gpu: GpuMesh, maps: SurfaceMaps, model: NDArray[np.float64], groove: Groove
-    ) -> Press:
+    def _carved(self, maps: SurfaceMaps, model: NDArray[np.float64], groove: Groove) -> Carved:
         track, r = groove.track, groove.radius
         n = track.normal
         # The path in the contact's plane, the swept sphere's axis R above it (first touch).
@@ -208,60 +284,20 @@ class WearTracker:
         mid = model @ np.append((start + end) / 2, 1.0)
         press_in = -(model[:3, :3] @ n)
         contact = ContactFrame(mid[:3], press_in / np.linalg.norm(press_in))
-        target = CarveBody(gpu, maps, model)
         if groove.corners is not None:
-            tool = self._swept_box(groove, end - start, maps, model)
-            return Press(target, tool, contact, groove.depth)
+            points = _swept_box_points(groove, end - start)
+            return Carved(
+                groove.worn, GrooveTool(points=points), model, model, contact, groove.depth
+            )
         along = end - start
         length = float(np.linalg.norm(along))
         direction = along / length
         rounded = max(LENGTH_STEP, round(length / LENGTH_STEP) * LENGTH_STEP)
         depth = wear.sphere_groove_depth(r, track.volume / rounded)
-        tool_gpu, tool_maps = self._tool(r, rounded, min(maps.texel_metres))
         local = np.eye(4)
         local[:3, :3] = np.column_stack([np.cross(n, direction), n, direction])
         local[:3, 3] = (start + end) / 2 + n * r
-        return Press(target, CarveBody(tool_gpu, tool_maps, model @ local), contact, depth)
-
-    def _swept_box(
-        self,
-        groove: Groove,
-        shift: NDArray[np.float64],
-        maps: SurfaceMaps,
-        model: NDArray[np.float64],
-    ) -> CarveBody:
-        """The box swept along the segment (the hull of its corners at both ends), in the worn
-        body's frame, touching the contact's plane (first touch); posed as the worn body."""
-        assert groove.corners is not None
-        track, n = groove.track, groove.track.normal
-        points = np.vstack([groove.corners - shift, groove.corners])
-        points -= n * float(((points - track.point) @ n).min())
-        mesh = hull_mesh(points, "swept box")
-        gpu = GpuMesh(self.gl, mesh)
-        with warnings.catch_warnings():  # capped on purpose: only its pitch matters
-            warnings.simplefilter("ignore")
-            texels = map_size_for(mesh, 1.0 / min(maps.texel_metres), cap=TOOL_MAP_MAX)
-        side = _power_of_two(texels)
-        hull = (gpu, create_maps(self.gl, gpu, side, 0.0))
-        self._hulls.append(hull)
-        return CarveBody(gpu, hull[1], model)
-
-    def _tool(self, radius: float, length: float, texel: float) -> tuple[GpuMesh, SurfaceMaps]:
-        """The capsule swept by a sphere of `radius` along `length`, its texels no coarser than
-        `texel` (a power-of-two map side, up to TOOL_MAP_MAX); made once per size."""
-        mesh = self._meshes.get((radius, length))
-        if mesh is None:
-            mesh = self._meshes[(radius, length)] = shape_mesh(
-                Capsule(radius, length), Tessellation()
-            )
-        side = _power_of_two(map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX))
-        key = (radius, length, float(side))
-        held = self._tools.get(key)
-        if held is None:
-            gpu = GpuMesh(self.gl, mesh)
-            held = (gpu, create_maps(self.gl, gpu, side, 0.0))
-            self._tools[key] = held
-        return held
+        return Carved(groove.worn, GrooveTool(r, rounded), model, model @ local, contact, depth)
 
     def saved(self) -> dict[str, object]:
         """The tracks (a slide under way), the volume worn per body and the segments carved, as
@@ -299,12 +335,25 @@ class WearTracker:
         self.worn.clear()
 
     def release(self) -> None:
-        for gpu, maps in [*self._tools.values(), *self._hulls]:
-            maps.release()
-            gpu.release()
-        self._hulls = []
-        self._tools.clear()
-        self._meshes.clear()
+        self.tools.release()
+
+
+def press_of(sim: Simulation, carved: Carved, tools: GrooveTools) -> Press:
+    """A groove segment as a press of its worn body (the carve, and a hit log's replay)."""
+    body = sim.bodies[carved.worn]
+    target = CarveBody(body.gpu_mesh, body.maps, carved.model)
+    tool = tools.body(carved.tool, body.maps, carved.tool_model)
+    return Press(target, tool, carved.contact, carved.depth)
+
+
+def _swept_box_points(groove: Groove, shift: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The corners of a box at both ends of the segment (the hull of them is the box swept
+    along it), in the worn body's frame, touching the contact's plane (first touch)."""
+    assert groove.corners is not None
+    track, n = groove.track, groove.track.normal
+    points = np.vstack([groove.corners - shift, groove.corners])
+    points -= n * float(((points - track.point) @ n).min())
+    return points
 
 
 @dataclass(frozen=True)

@@ -76,6 +76,27 @@ class Hit:
 
 
 @dataclass(frozen=True)
+class Groove:
+    """One segment of a scratch (app/wear.py): `target` pressed `depth` metres along
+    `direction` at `point` by a swept tool, carved in `batch` with its hits. The tool is a
+    sphere of `radius` swept along `length` (a capsule, posed `tool_pose`) or, where `points`
+    is given, the hull of a box's corners at both ends of the segment (16 x 3 numbers, the
+    target's frame, metres; posed as the target)."""
+
+    frame: int
+    batch: int
+    target: int
+    radius: float
+    length: float
+    points: tuple[float, ...]
+    target_pose: Pose
+    tool_pose: Pose
+    point: Vec3
+    direction: Vec3
+    depth: float
+
+
+@dataclass(frozen=True)
 class Event:
     """Something other than a hit that changes the maps: `undo` (the last batch taken back),
     `repair` (`body` back to pristine), `reset` (every body back to the scene), or `depth_bound`
@@ -87,11 +108,13 @@ class Event:
     value: float = 0.0
 
 
-Record = Body | Hit | Event
+Record = Body | Hit | Groove | Event
 
 EVENT_KINDS = ("undo", "repair", "reset", "depth_bound")
 _KIND_BODY, _KIND_BATCH, _KIND_HIT = 1, 2, 3
 _KIND_EVENT = {name: 4 + i for i, name in enumerate(EVENT_KINDS)}
+_KIND_GROOVE = 9
+_GROOVE = struct.Struct("<BH")  # flags (1: a box's hull), target; then float64s
 _KIND_END = 15
 _END = struct.Struct("<I")  # how many records came before it
 _EVENT_OF = {code: name for name, code in _KIND_EVENT.items()}
@@ -119,6 +142,9 @@ SCHEMA: dict[str, Any] = {
     " matrix[12] (rows); flags 1|2: a quaternion left out, it is (1,0,0,0); 4|8: a depth left"
     " out, it is 0",
     "4-7 undo repair reset depth_bound": "u32 frame u16 body(65535 none) f64 value",
+    "9 groove": "u8 flags(1 hull) u16 target f64 radius length [hull: points[48]]"
+    " target_pose[12] tool_pose[12] point[3] direction[3] depth; in the batch of the hits"
+    " before it",
     "15 end": "u32 records before it; a file's last record (a stream may lack it)",
     "units": "metres, world frame, quaternions w x y z",
 }
@@ -174,8 +200,8 @@ class Checker:
             if record.index in self.declared or not 0 <= record.index < MAX_BODIES:
                 raise HitLogError(f"{at}: body index {record.index} declared twice or out of range")
             self.declared.add(record.index)
-        elif isinstance(record, Hit):
-            self._hit(record, at)
+        elif isinstance(record, Hit | Groove):
+            self._carve(record, at)
         else:
             if record.kind not in EVENT_KINDS:
                 raise HitLogError(f"{at}: unknown record kind '{record.kind}'")
@@ -188,8 +214,11 @@ class Checker:
             self.closed.add(self.batch)
         return record
 
-    def _hit(self, record: Hit, at: str) -> None:
-        for name, index in (("target", record.target), ("tool", record.tool)):
+    def _carve(self, record: Hit | Groove, at: str) -> None:
+        named = [("target", record.target)]
+        if isinstance(record, Hit):
+            named.append(("tool", record.tool))
+        for name, index in named:
             if index not in self.declared:
                 raise HitLogError(f"{at}: {name} {index} names no body declared before it")
         if record.batch != self.batch:
@@ -201,7 +230,12 @@ class Checker:
             raise HitLogError(
                 f"{at}: batch {self.batch} spans frames {self.batch_frame} and {record.frame}"
             )
-        _finite(at, "a number", _hit_numbers(record))
+        _finite(at, "a number", _numbers(record))
+        if isinstance(record, Groove):
+            if len(record.points) not in (0, 48) or len(record.target_pose) != 12:
+                raise HitLogError(f"{at}: a groove has 0 or 48 point numbers and 12-number poses")
+            if record.depth < 0 or record.radius < 0 or record.length < 0:
+                raise HitLogError(f"{at}: a groove's depth and sizes are >= 0")
         if not math.sqrt(sum(x * x for x in record.direction)) > 1e-12:
             raise HitLogError(f"{at}: direction is zero")
         for name, pose in (("target pose", record.target_pose), ("tool pose", record.tool_pose)):
@@ -210,7 +244,7 @@ class Checker:
             norm = math.sqrt(sum(x * x for x in pose[3:]))
             if len(pose) == 7 and abs(norm - 1.0) > 1e-6:
                 raise HitLogError(f"{at}: {name}'s quaternion is not a unit vector ({norm:g})")
-        if record.target_depth < 0 or record.tool_depth < 0:
+        if isinstance(record, Hit) and (record.target_depth < 0 or record.tool_depth < 0):
             raise HitLogError(f"{at}: a depth is negative")
 
 
@@ -223,6 +257,22 @@ def check(records: Iterable[Record], where: Iterable[str] | None = None) -> list
         checker.add(record, next(names) if names is not None else f"record {n + 1}")
         for n, record in enumerate(records)
     ]
+
+
+def _numbers(record: Hit | Groove) -> tuple[float, ...]:
+    if isinstance(record, Groove):
+        g = record
+        return (
+            g.radius,
+            g.length,
+            *g.points,
+            *g.target_pose,
+            *g.tool_pose,
+            *g.point,
+            *g.direction,
+            g.depth,
+        )
+    return _hit_numbers(record)
 
 
 def _hit_numbers(h: Hit) -> tuple[float, ...]:
@@ -252,6 +302,12 @@ class Encoder:
     def encode(self, record: Record) -> bytes:
         if isinstance(record, Hit):
             return self._hit(record)
+        if isinstance(record, Groove):
+            head = self._batch_of(record)
+            values = _numbers(record)
+            flags = 1 if record.points else 0
+            packed = struct.pack(f"<{len(values)}d", *values)
+            return head + bytes([_KIND_GROOVE]) + _GROOVE.pack(flags, record.target) + packed
         if isinstance(record, Body):
             name = record.id.encode()
             added = bool(record.spec.get("added"))
@@ -271,11 +327,15 @@ class Encoder:
         body = _NO_BODY if record.body < 0 else record.body
         return bytes([_KIND_EVENT[record.kind]]) + _EVENT.pack(record.frame, body, record.value)
 
+    def _batch_of(self, record: Hit | Groove) -> bytes:
+        """A batch record when `record` starts a new batch, else nothing."""
+        if record.batch == self._batch:
+            return b""
+        self._batch = record.batch
+        return bytes([_KIND_BATCH]) + _BATCH.pack(record.frame)
+
     def _hit(self, h: Hit) -> bytes:
-        out = b""
-        if h.batch != self._batch:
-            self._batch = h.batch
-            out = bytes([_KIND_BATCH]) + _BATCH.pack(h.frame)
+        out = self._batch_of(h)
         flags = (_NO_TARGET_DEPTH if _same((h.target_depth,), (0.0,)) else 0) | (
             _NO_TOOL_DEPTH if _same((h.tool_depth,), (0.0,)) else 0
         )
@@ -359,6 +419,28 @@ def _read_hit(r: _Reader, frame: int, batch: int) -> Hit:
         direction,  # type: ignore[arg-type]
         target_depth,
         tool_depth,
+    )
+
+
+def _read_groove(r: _Reader, frame: int, batch: int) -> Groove:
+    flags, target = r.take(_GROOVE)
+    radius, length = r.floats(2)
+    points = r.floats(48) if flags & 1 else ()
+    target_pose, tool_pose = r.floats(12), r.floats(12)
+    point, direction = r.floats(3), r.floats(3)
+    (depth,) = r.floats(1)
+    return Groove(
+        frame,
+        batch,
+        target,
+        radius,
+        length,
+        points,
+        target_pose,
+        tool_pose,
+        point,  # type: ignore[arg-type]
+        direction,  # type: ignore[arg-type]
+        depth,
     )
 
 
@@ -448,6 +530,10 @@ class Decoder:
             if self._batch < 0:
                 raise HitLogError(f"{at}: a hit before any batch record")
             record: Record = _read_hit(r, self._frame, self._batch)
+        elif kind == _KIND_GROOVE:
+            if self._batch < 0:
+                raise HitLogError(f"{at}: a groove before any batch record")
+            record = _read_groove(r, self._frame, self._batch)
         elif kind == _KIND_BODY:
             record = _read_body(r)
         elif kind in _EVENT_OF:
@@ -475,6 +561,8 @@ def _read_binary(data: bytes, source: str) -> list[tuple[str, Record]]:
 def to_json(record: Record) -> dict[str, Any]:
     if isinstance(record, Hit):
         return {"kind": "hit", **{k: _plain(v) for k, v in record.__dict__.items()}}
+    if isinstance(record, Groove):
+        return {"kind": "groove", **{k: _plain(v) for k, v in record.__dict__.items()}}
     if isinstance(record, Body):
         return {"kind": "body", **record.__dict__}
     return {"kind": record.kind, "frame": record.frame, "body": record.body, "value": record.value}
@@ -527,6 +615,21 @@ def from_json(fields: dict[str, Any]) -> Record:
             _number("target_depth", fields["target_depth"]),
             _number("tool_depth", fields["tool_depth"]),
         )
+    if kind == "groove":
+        g = {k: _tuple(fields, k, n) for k, n in _GROOVE_TUPLES.items()}
+        return Groove(
+            _integer(fields, "frame"),
+            _integer(fields, "batch"),
+            _integer(fields, "target"),
+            _number("radius", fields["radius"]),
+            _number("length", fields["length"]),
+            g["points"],
+            g["target_pose"],
+            g["tool_pose"],
+            g["point"],  # type: ignore[arg-type]
+            g["direction"],  # type: ignore[arg-type]
+            _number("depth", fields["depth"]),
+        )
     if kind == "body":
         spec = fields["spec"]
         if not isinstance(spec, dict) or not isinstance(fields["id"], str):
@@ -541,6 +644,13 @@ def from_json(fields: dict[str, Any]) -> Record:
 
 
 _HIT_TUPLES = {"target_pose": (7, 12), "tool_pose": (7, 12), "point": (3,), "direction": (3,)}
+_GROOVE_TUPLES = {
+    "points": (0, 48),
+    "target_pose": (12,),
+    "tool_pose": (12,),
+    "point": (3,),
+    "direction": (3,),
+}
 
 
 def _read_lines(text: str, source: str) -> Iterator[tuple[str, Record]]:
