@@ -39,6 +39,7 @@ def saved(gl_session, tmp_path_factory) -> Path:
     from dentdemo.app.state import save_state
 
     folder = tmp_path_factory.mktemp("abuse") / "saved"
+    gl_session.make_current()  # tests before may have made and released contexts of their own
     sim = _sim(gl_session, carve_budget=0)
     try:
         sim.drop_ball((0.6, 0.5, 0.6))
