@@ -14,13 +14,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.carve.constants import MIN_COS, RING_TEXELS, SLAB_MARGIN_TEXELS
 from dentdemo.carve.footprint import Overlap, Projected, Query, Rect, meeting_many, overlap
-from dentdemo.carve.linear import Floats3, column_scale, cross3, dot3, inverse3, rows_times
+from dentdemo.carve.linear import column_scale
 from dentdemo.mesh.mesh import Mesh
 
 Vec3 = NDArray[np.float64]
@@ -93,39 +94,6 @@ class BodyPose:
     texel_metres: float = 0.0
 
 
-# The few vectors of a camera's frame are worked out on Python floats (carve/linear.py), which
-# cost less per operation than numpy calls on arrays of three.
-def _floats(v: object) -> Floats3:
-    x, y, z = np.asarray(v, dtype=np.float64).tolist()
-    return x, y, z
-
-
-def _length(v: Floats3) -> float:
-    return math.sqrt(dot3(v, v))
-
-
-def _scaled(v: Floats3, k: float) -> Floats3:
-    return v[0] * k, v[1] * k, v[2] * k
-
-
-def _unit(v: Floats3) -> Floats3:
-    return _scaled(v, 1.0 / max(_length(v), 1e-30))
-
-
-def _across(v: Floats3, unit: Floats3) -> Floats3:
-    """`v` less its part along `unit`."""
-    along = dot3(v, unit)
-    return v[0] - along * unit[0], v[1] - along * unit[1], v[2] - along * unit[2]
-
-
-def _axes(dpdu: Floats3, forward: Floats3) -> tuple[Floats3, Floats3]:
-    right = _across(dpdu, forward)
-    if _length(right) < 1e-9 * max(_length(dpdu), 1e-30):
-        right = _across((1.0, 0.0, 0.0) if abs(forward[0]) < 0.9 else (0.0, 0.0, 1.0), forward)
-    right = _unit(right)
-    return right, cross3(right, forward)
-
-
 @dataclass(frozen=True)
 class CameraDraft:
     """A collision camera but for its triangle lists, which `collision_cameras` finds for a
@@ -144,6 +112,19 @@ class CameraDraft:
     fields: dict[str, object]
 
 
+class DraftRequest(NamedTuple):
+    """One direction of a hit for `camera_drafts`: `target` carved by `tool` (already advanced
+    by the dent depth, `advance` metres along the press from first touch) at `contact`;
+    `tool_list` False: pass 3 draws the tool without a triangle list (a sphere as one quad)."""
+
+    target: BodyPose
+    tool: BodyPose
+    map_size: tuple[int, int]
+    contact: ContactFrame
+    advance: float = 0.0
+    tool_list: bool = True
+
+
 def camera_draft(
     target: BodyPose,
     tool: BodyPose,
@@ -156,44 +137,143 @@ def camera_draft(
 ) -> CameraDraft | None:
     """The camera for carving `target` by `tool` (already advanced by the dent depth) at
     `contact`, up to its triangle lists (`collision_cameras` finds those of a batch's drafts
-    together); None when the bodies cannot overlap.
+    together); None when the bodies cannot overlap. `camera_drafts` of one request.
 
     `loose` bounds the view by both bodies' bounding spheres instead of the footprint (for tests
-    of the footprint bound only). `advance`: how far the tool was moved along the press from
-    first touch, metres. `tool_list` False: pass 3 draws the tool without a triangle list (a
-    sphere as one quad).
+    of the footprint bound only).
     """
+    request = DraftRequest(target, tool, map_size, contact, advance, tool_list)
+    return camera_drafts([request], max_resolution, loose)[0]
+
+
+def camera_drafts(
+    requests: Sequence[DraftRequest], max_resolution: int, loose: bool = False
+) -> list[CameraDraft | None]:
+    """`camera_draft` of each request, the camera frames of all of them worked out together
+    (`_frames`: one array expression per step over every direction); then each one's bound."""
+    if not requests:
+        return []
+    frames = _frames(requests)
+    return [
+        _draft(request, frame, max_resolution, loose)
+        for request, frame in zip(requests, frames, strict=True)
+    ]
+
+
+class _Frame(NamedTuple):
+    """A direction's camera frame (world metres): axes (right, up, forward as rows), the
+    origin (the centre of the target texel under the contact), the target's texel sides along
+    u and v and the pixel pitches (before the lattice)."""
+
+    axes: NDArray[np.float64]
+    origin: tuple[float, float, float]
+    texel_u: float
+    texel_v: float
+    pitch_x: float
+    pitch_y: float
+
+
+def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """dot3 of the vectors along the last axis of `a` and `b`, summed in dot3's order."""
+    p = a * b
+    return p[..., 0] + p[..., 1] + p[..., 2]
+
+
+def _matrix_rows(m: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """rows_times of each (3, 3) `m` (n, 3, 3) and its vector `v` (n, 3)."""
+    return _dot(m, v[:, None, :])
+
+
+def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """cross3 of the vectors along the last axis of `a` and `b`."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def _unit_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """`_unit` of rows (n, 3)."""
+    return v * (1.0 / np.maximum(np.sqrt(_dot(v, v)), 1e-30))[:, None]
+
+
+def _across_rows(v: NDArray[np.float64], unit: NDArray[np.float64]) -> NDArray[np.float64]:
+    """`_across` of rows (n, 3)."""
+    return v - _dot(v, unit)[:, None] * unit
+
+
+def _inverses(m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """`linear.inverse3` of each (3, 3) `m` (n, 3, 3): the same cofactors (row k of the
+    adjugate is the cross product of columns k + 1 and k + 2), the same determinant."""
+    columns = m.transpose(0, 2, 1)
+    adjugate = _cross(columns[:, [1, 2, 0]], columns[:, [2, 0, 1]])
+    det = _dot(m[:, 0], adjugate[:, :, 0])
+    if ((det == 0.0) | (det != det)).any():
+        raise ValueError("singular 3x3 matrix")
+    return adjugate * (1.0 / det)[:, None, None]
+
+
+def _frames(requests: Sequence[DraftRequest]) -> list[_Frame]:
+    """The camera frame of every request, each step one array expression over all of them: the
+    arithmetic of one direction on Python floats, in the same order, so the same bits (where
+    Python's max would pick one of two equal values, they are the same float here). The view
+    looks along the press; `right` follows the target's +u tangent at the contact, its pitch
+    the target's texel as the camera sees it, a pixel spanning a whole number of target
+    texels up to one of the tool's, and the origin is the centre of the target texel under
+    the contact. Pairs of u and v quantities are (n, 2) arrays."""
+    models = np.array([r.target.model for r in requests], dtype=np.float64)
+    linear = models[:, :3, :3]
+    forward = _unit_rows(np.array([r.contact.direction for r in requests], dtype=np.float64))
+    point = np.array([r.contact.point for r in requests], dtype=np.float64)
+    local = _matrix_rows(_inverses(linear), point - models[:, :3, 3])
+    # Each target's triangle near the contact (a mesh's own look-up), its uv extended to it.
+    surfs = [r.target.mesh.frame_near(p) for r, p in zip(requests, local, strict=True)]
+    uv = np.array([s.uv for s in surfs], dtype=np.float64)
+    # World metres per unit of u and of v (n, 2, 3).
+    local_tangents = np.array([(s.dpdu, s.dpdv) for s in surfs], dtype=np.float64)
+    tangents = _dot(linear[:, None], local_tangents[:, :, None])
+    lengths = np.sqrt(_dot(tangents, tangents))
+    size = np.array([r.map_size for r in requests], dtype=np.float64)
+    # `_axes`: right along dP/du across the view, or a fixed axis where dP/du is along it.
+    right = _across_rows(tangents[:, 0], forward)
+    along = np.sqrt(_dot(right, right)) < 1e-9 * np.maximum(lengths[:, 0], 1e-30)
+    if along.any():
+        fixed = np.where((np.abs(forward[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+        right = np.where(along[:, None], _across_rows(fixed, forward), right)
+    right = _unit_rows(right)
+    up = _cross(right, forward)
+    # Texel pitch as the camera sees it (x from u, y from v), metres; grazing views are clamped.
+    texel = lengths / size
+    seen = np.abs(_dot(tangents, np.stack([right, up], axis=1))) / size
+    pitch = np.maximum(seen, MIN_COS * texel)
+    # The tool is known to its own texels only: where the target's texels are finer, a pixel
+    # spans a whole number of them (pixel centres stay on texel centres) up to one of the
+    # tool's texels.
+    tool_texel = np.array([r.tool.texel_metres for r in requests], dtype=np.float64)
+    pitch = pitch * np.maximum(np.floor(tool_texel[:, None] / pitch), 1.0)
+    # A pixel centre on the centre of the texel under the contact.
+    shift = (np.floor(uv * size) + 0.5) / size - uv
+    origin = point + tangents[:, 0] * shift[:, 0, None] + tangents[:, 1] * shift[:, 1, None]
+    axes = np.stack([right, up, forward], axis=1)
+    return [
+        _Frame(frame, (o[0], o[1], o[2]), t[0], t[1], p[0], p[1])
+        for frame, o, t, p in zip(
+            axes, origin.tolist(), texel.tolist(), pitch.tolist(), strict=True
+        )
+    ]
+
+
+def _draft(
+    request: DraftRequest, frame: _Frame, max_resolution: int, loose: bool
+) -> CameraDraft | None:
+    """One direction's draft from its frame: the footprint bound, the lattice of pixels, the
+    depth range and slabs."""
+    target, tool, _, _, advance, tool_list = request
     model = np.asarray(target.model, dtype=np.float64)
     linear = model[:3, :3]
-    rows = linear.tolist()
-    forward = _unit(_floats(contact.direction))
-    point = _floats(contact.point)
-    tx, ty, tz = model[:3, 3].tolist()
-    rel = (point[0] - tx, point[1] - ty, point[2] - tz)
-    surf = target.mesh.frame_near(np.array(rows_times(inverse3(linear).tolist(), rel)))
-    # World metres per uv unit.
-    dpdu = rows_times(rows, _floats(surf.dpdu))
-    dpdv = rows_times(rows, _floats(surf.dpdv))
-    width, height = map_size
-    right, up = _axes(dpdu, forward)
-
-    # Texel pitch as the camera sees it, metres; grazing views are clamped.
-    texel_u = _length(dpdu) / width
-    texel_v = _length(dpdv) / height
-    pitch_x = max(abs(dot3(dpdu, right)) / width, MIN_COS * texel_u)
-    pitch_y = max(abs(dot3(dpdv, up)) / height, MIN_COS * texel_v)
-    # The tool is known to its own texels only: where the target's texels are finer, a pixel spans
-    # a whole number of them (pixel centres stay on texel centres) up to one of the tool's texels.
-    pitch_x *= max(1, math.floor(tool.texel_metres / pitch_x))
-    pitch_y *= max(1, math.floor(tool.texel_metres / pitch_y))
-
-    # A pixel centre on the centre of the texel under the contact.
-    u, v = surf.uv.tolist()
-    du = (math.floor(u * width) + 0.5) / width - u
-    dv = (math.floor(v * height) + 0.5) / height - v
-    origin = tuple(p + a * du + b * dv for p, a, b in zip(point, dpdu, dpdv, strict=True))
-
-    axes, at = np.array([right, up, forward]), np.array(origin)
+    axes, origin = frame.axes, frame.origin
+    right, up, forward = (axes[0].tolist(), axes[1].tolist(), axes[2].tolist())
+    texel_u, texel_v, pitch_x, pitch_y = frame.texel_u, frame.texel_v, frame.pitch_x, frame.pitch_y
+    at = np.array(origin)
     target_tris = Projected(target.mesh, model, at, axes)
     tool_tris = Projected(tool.mesh, tool.model, at, axes)
     bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)

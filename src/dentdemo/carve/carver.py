@@ -19,10 +19,10 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import (
     BodyPose,
-    CameraDraft,
     CollisionCamera,
     ContactFrame,
-    camera_draft,
+    DraftRequest,
+    camera_drafts,
     collision_cameras,
 )
 from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
@@ -605,7 +605,11 @@ class Carver:
                         advanced[:3, 3] += frame.direction * depth  # the tool advances
                         directions.append((body, other, frame, float(depth), advanced))
             counts.append(len(directions) - before)
-        drafts = [self._draft(*direction) for direction in directions]
+        drafts = camera_drafts(
+            [self._request(*direction) for direction in directions],
+            self.max_resolution,
+            loose=self._switches.loose_camera,
+        )
         cameras = iter(collision_cameras(drafts, self._exact_lists))
         found = iter(
             [
@@ -616,23 +620,21 @@ class Carver:
         # Each press's directions, in order, less those whose bodies cannot meet.
         return [[job for job in islice(found, count) if job is not None] for count in counts]
 
-    def _draft(
+    def _request(
         self,
         target: CarveBody,
         tool: CarveBody,
         contact: ContactFrame,
         depth: float,
         advanced: NDArray[np.float64],
-    ) -> CameraDraft | None:
-        """Pass 1 of one direction up to its triangle lists: the tool at `advanced` (moved by the
-        dent `depth` along the press)."""
-        return camera_draft(
+    ) -> DraftRequest:
+        """Pass 1 of one direction up to its triangle lists, as `camera_drafts` takes it: the
+        tool at `advanced` (moved by the dent `depth` along the press)."""
+        return DraftRequest(
             target.pose(),
             tool.pose(advanced),
             target.maps.size,
             contact,
-            self.max_resolution,
-            loose=self._switches.loose_camera,
             advance=depth,
             tool_list=not (self._switches.swept_quads and quad_kind(tool.gpu_mesh.mesh)),
         )
