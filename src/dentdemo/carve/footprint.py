@@ -263,15 +263,17 @@ def meeting_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
 def _meets_boxes(centre: Array, radius: Array, boxes: Array, sizes: list[int]) -> NDArray[np.bool_]:
     """Whether each sphere meets its box (x0, x1, y0, y1, s0, s1): the first sizes[0] spheres
     the first of `boxes`, and so on; NaN never meets."""
-    b = np.repeat(boxes, sizes, axis=0)
-    return (
-        (centre[:, 0] + radius >= b[:, 0])
-        & (centre[:, 0] - radius <= b[:, 1])
-        & (centre[:, 1] + radius >= b[:, 2])
-        & (centre[:, 1] - radius <= b[:, 3])
-        & (centre[:, 2] + radius >= b[:, 4])
-        & (centre[:, 2] - radius <= b[:, 5])
-    )
+    # Each bound as one contiguous row of the spheres' count (boxes.T repeated), the tests
+    # folded into one array in place.
+    b = np.repeat(boxes.T, sizes, axis=1)
+    x, y, s = centre[:, 0], centre[:, 1], centre[:, 2]
+    meets = x + radius >= b[0]
+    meets &= x - radius <= b[1]
+    meets &= y + radius >= b[2]
+    meets &= y - radius <= b[3]
+    meets &= s + radius >= b[4]
+    meets &= s - radius <= b[5]
+    return meets
 
 
 def _split(keep: NDArray[np.bool_], sizes: list[int]) -> list[NDArray[np.bool_]]:
