@@ -11,7 +11,6 @@ reaches the texels beside the dent, and never the whole body.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -149,28 +148,175 @@ def camera_draft(
 def camera_drafts(
     requests: Sequence[DraftRequest], max_resolution: int, loose: bool = False
 ) -> list[CameraDraft | None]:
-    """`camera_draft` of each request, the camera frames of all of them worked out together
-    (`_frames`: one array expression per step over every direction); then each one's bound."""
+    """`camera_draft` of each request, worked out for all of them together: their camera
+    frames (`_frames`), then each one's footprint bound (`footprint.overlap`), then the
+    lattices, depth ranges and slabs of those whose bodies can meet (`_views`), each step one
+    array expression over every direction."""
     if not requests:
         return []
     frames = _frames(requests)
-    return [
-        _draft(request, frame, max_resolution, loose)
-        for request, frame in zip(requests, frames, strict=True)
-    ]
+    posed: list[_Posed] = []
+    for k, (target, tool, _, _, advance, _) in enumerate(requests):
+        target_tris = Projected(target.mesh, target.model, frames.origin[k], frames.axes[k])
+        tool_tris = Projected(tool.mesh, tool.model, frames.origin[k], frames.axes[k])
+        bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)
+        if bound is not None:
+            if loose:
+                bound = _loose(target_tris, tool_tris, bound)
+            posed.append(_Posed(k, target_tris, tool_tris, bound))
+    drafts: list[CameraDraft | None] = [None] * len(requests)
+    if posed:
+        for one, draft in zip(posed, _views(requests, frames, posed, max_resolution), strict=True):
+            drafts[one.at] = draft
+    return drafts
 
 
-class _Frame(NamedTuple):
-    """A direction's camera frame (world metres): axes (right, up, forward as rows), the
-    origin (the centre of the target texel under the contact), the target's texel sides along
-    u and v and the pixel pitches (before the lattice)."""
+class _Frames(NamedTuple):
+    """The camera frames of a batch's directions (world metres): axes (n, 3, 3: right, up,
+    forward as rows), origins (n, 3: the centre of the target texel under each contact), the
+    target's texel sides along u and v (n, 2) and the pixel pitches along x and y (n, 2,
+    before the lattice)."""
 
     axes: NDArray[np.float64]
-    origin: tuple[float, float, float]
-    texel_u: float
-    texel_v: float
-    pitch_x: float
-    pitch_y: float
+    origin: NDArray[np.float64]
+    texel: NDArray[np.float64]
+    pitch: NDArray[np.float64]
+
+
+class _Posed(NamedTuple):
+    """A direction whose bodies can meet: its index in the batch, both bodies in its camera's
+    coordinates and the bound of their overlap."""
+
+    at: int
+    target_tris: Projected
+    tool_tris: Projected
+    bound: Overlap
+
+
+def _py_max(a: NDArray[np.float64], b: NDArray[np.float64] | float) -> NDArray[np.float64]:
+    """Python's max(a, b) elementwise (b only where greater: of 0.0 and -0.0, a)."""
+    return np.where(b > a, b, a)
+
+
+def _py_min(a: NDArray[np.float64], b: NDArray[np.float64] | float) -> NDArray[np.float64]:
+    """Python's min(a, b) elementwise (b only where less)."""
+    return np.where(b < a, b, a)
+
+
+def _views(
+    requests: Sequence[DraftRequest],
+    frames: _Frames,
+    posed: list[_Posed],
+    max_resolution: int,
+) -> list[CameraDraft]:
+    """The drafts of the directions `posed` (each with its bound) of `requests`: each one's
+    lattice of pixels over its bound, depth range and slabs, one array expression per step
+    over all of them (the arithmetic one direction had on Python floats, in the same order:
+    the same bits). Pairs of x and y quantities are (m, 2) arrays."""
+    index = np.array([one.at for one in posed])
+    bounds = np.array(
+        [
+            (b.rect.x0, b.rect.x1, b.rect.y0, b.rect.y1, *b.slab)
+            for b in (one.bound for one in posed)
+        ]
+    )
+    low, high, slab = bounds[:, 0:4:2], bounds[:, 1:4:2], bounds[:, 4:]
+    texel_uv, pitch = frames.texel[index], frames.pitch[index]
+    texel = np.maximum(texel_uv[:, 0], texel_uv[:, 1])
+    margin = (2.0 * texel + np.maximum(pitch[:, 0], pitch[:, 1]))[:, None]
+    low, high = low - margin, high + margin
+    # Pixel centres at whole multiples of the pitch from the origin; beyond `max_resolution`
+    # pixels a side, fewer larger ones over the same span.
+    k0, k1 = np.floor(low / pitch), np.ceil(high / pitch)
+    count = k1 - k0 + 1
+    capped = count > max_resolution
+    centre = np.where(capped, (low + high) / 2, (k0 + k1) / 2 * pitch)
+    pitch = np.where(capped, (high - low) / (max_resolution - 1), pitch)
+    count = np.where(capped, max_resolution, count)
+    half = count * pitch / 2.0
+    # Depth range: everything of both bodies, so that nothing in front of the target is
+    # clipped. Heights: each body's (max_height, max_dent_depth), target first.
+    s = np.array([(*one.target_tris.s_range(), *one.tool_tris.s_range()) for one in posed])
+    heights = np.array(
+        [
+            (r.target.max_height, r.target.max_dent_depth, r.tool.max_height, r.tool.max_dent_depth)
+            for r in (requests[one.at] for one in posed)
+        ]
+    )
+    proud_each = _py_max(heights, 0.0)
+    bumps = 0 + (proud_each[:, 0] + proud_each[:, 1]) + (proud_each[:, 2] + proud_each[:, 3])
+    near_s = _py_min(s[:, 0], s[:, 2]) - bumps - 1e-4
+    far_s = _py_max(s[:, 1], s[:, 3]) + bumps + 1e-4
+    axes = frames.axes[index]
+    eye = (
+        frames.origin[index]
+        + axes[:, 0] * centre[:, 0, None]
+        + axes[:, 1] * centre[:, 1, None]
+        + axes[:, 2] * near_s[:, None]
+    )
+    # A built-in sphere or capsule is dented at its texels' points on the smooth solid but
+    # clipped at their facet points, which lie up to its facet sag deeper (mesh.facet_sag).
+    sag = np.array(
+        [
+            r.target.mesh.facet_sag() * column_scale(np.asarray(r.target.model)[:3, :3])
+            for r in (requests[one.at] for one in posed)
+        ]
+    )
+    gather_lo = slab[:, 0] - SLAB_MARGIN_TEXELS * texel
+    gather_hi = slab[:, 1] + SLAB_MARGIN_TEXELS * texel + sag
+    ring = RING_TEXELS * texel
+    proud = proud_each[:, 0] + proud_each[:, 2]
+    # Pass 2 sees the target from the slab's near side on (a nearer surface lies behind the
+    # tool: it neither hides the slab nor takes a dent), up to its far side. Pass 3 draws the
+    # tool's faces that reach past the slab's near side (two pixels more for the bilinear
+    # neighbours at the rim): a front face nearer than that is nearer than every target
+    # surface pass 2 keeps, so leaving it out drops nothing that pass 2 or 4 would test
+    # against it.
+    tool_near = gather_lo - proud - 2.0 * np.maximum(pitch[:, 0], pitch[:, 1])
+    columns = zip(
+        (centre - half).tolist(),
+        (centre + half).tolist(),
+        half.tolist(),
+        count.astype(np.int64).tolist(),
+        texel.tolist(),
+        (gather_lo - ring).tolist(),
+        (gather_hi + ring).tolist(),
+        tool_near.tolist(),
+        (far_s - near_s).tolist(),
+        (gather_lo - near_s).tolist(),
+        (gather_hi - near_s).tolist(),
+        strict=True,
+    )
+    drafts = []
+    for one, eye_k, (lo, hi, (half_x, half_y), cols, texel_k, *slabs, depth, near, far) in zip(
+        posed, eye, columns, strict=True
+    ):
+        request = requests[one.at]
+        view = Rect(lo[0], hi[0], lo[1], hi[1])
+        frame = frames.axes[one.at]
+        drafts.append(
+            CameraDraft(
+                target=request.target,
+                target_tris=one.target_tris,
+                tool_tris=one.tool_tris,
+                view=view,
+                texel_view=texel_rect(request.target, one.bound.rect, 2.0 * texel_k, view),
+                texel_slab=(slabs[0], slabs[1]),
+                tool_slab=(slabs[2], np.inf) if request.tool_list else None,
+                fields={
+                    "eye": eye_k,
+                    "right": frame[0],
+                    "up": frame[1],
+                    "forward": frame[2],
+                    "half_extent": (half_x, half_y),
+                    "depth_range": (0.0, depth),
+                    "resolution": (cols[0], cols[1]),
+                    "slab": (near, far),
+                    "texel_metres": texel_k,
+                },
+            )
+        )
+    return drafts
 
 
 def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -185,10 +331,13 @@ def _matrix_rows(m: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.f
 
 
 def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """cross3 of the vectors along the last axis of `a` and `b`."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+    """cross3 of the vectors along the last axis of `a` and `b` (component k: a[k+1] b[k+2]
+    less a[k+2] b[k+1])."""
+    return a[..., _NEXT] * b[..., _AFTER] - a[..., _AFTER] * b[..., _NEXT]
+
+
+#: Each component's next and the one after (cyclic): the cross product's factors.
+_NEXT, _AFTER = [1, 2, 0], [2, 0, 1]
 
 
 def _unit_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -205,14 +354,14 @@ def _inverses(m: NDArray[np.float64]) -> NDArray[np.float64]:
     """`linear.inverse3` of each (3, 3) `m` (n, 3, 3): the same cofactors (row k of the
     adjugate is the cross product of columns k + 1 and k + 2), the same determinant."""
     columns = m.transpose(0, 2, 1)
-    adjugate = _cross(columns[:, [1, 2, 0]], columns[:, [2, 0, 1]])
+    adjugate = _cross(columns[:, _NEXT], columns[:, _AFTER])
     det = _dot(m[:, 0], adjugate[:, :, 0])
     if ((det == 0.0) | (det != det)).any():
         raise ValueError("singular 3x3 matrix")
     return adjugate * (1.0 / det)[:, None, None]
 
 
-def _frames(requests: Sequence[DraftRequest]) -> list[_Frame]:
+def _frames(requests: Sequence[DraftRequest]) -> _Frames:
     """The camera frame of every request, each step one array expression over all of them: the
     arithmetic of one direction on Python floats, in the same order, so the same bits (where
     Python's max would pick one of two equal values, they are the same float here). The view
@@ -243,7 +392,7 @@ def _frames(requests: Sequence[DraftRequest]) -> list[_Frame]:
     up = _cross(right, forward)
     # Texel pitch as the camera sees it (x from u, y from v), metres; grazing views are clamped.
     texel = lengths / size
-    seen = np.abs(_dot(tangents, np.stack([right, up], axis=1))) / size
+    seen = np.abs(_dot(tangents, np.concatenate((right[:, None], up[:, None]), axis=1))) / size
     pitch = np.maximum(seen, MIN_COS * texel)
     # The tool is known to its own texels only: where the target's texels are finer, a pixel
     # spans a whole number of them (pixel centres stay on texel centres) up to one of the
@@ -253,97 +402,8 @@ def _frames(requests: Sequence[DraftRequest]) -> list[_Frame]:
     # A pixel centre on the centre of the texel under the contact.
     shift = (np.floor(uv * size) + 0.5) / size - uv
     origin = point + tangents[:, 0] * shift[:, 0, None] + tangents[:, 1] * shift[:, 1, None]
-    axes = np.stack([right, up, forward], axis=1)
-    return [
-        _Frame(frame, (o[0], o[1], o[2]), t[0], t[1], p[0], p[1])
-        for frame, o, t, p in zip(
-            axes, origin.tolist(), texel.tolist(), pitch.tolist(), strict=True
-        )
-    ]
-
-
-def _draft(
-    request: DraftRequest, frame: _Frame, max_resolution: int, loose: bool
-) -> CameraDraft | None:
-    """One direction's draft from its frame: the footprint bound, the lattice of pixels, the
-    depth range and slabs."""
-    target, tool, _, _, advance, tool_list = request
-    model = np.asarray(target.model, dtype=np.float64)
-    linear = model[:3, :3]
-    axes, origin = frame.axes, frame.origin
-    right, up, forward = (axes[0].tolist(), axes[1].tolist(), axes[2].tolist())
-    texel_u, texel_v, pitch_x, pitch_y = frame.texel_u, frame.texel_v, frame.pitch_x, frame.pitch_y
-    at = np.array(origin)
-    target_tris = Projected(target.mesh, model, at, axes)
-    tool_tris = Projected(tool.mesh, tool.model, at, axes)
-    bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)
-    if bound is None:
-        return None
-    if loose:
-        bound = _loose(target_tris, tool_tris, bound)
-    margin = 2.0 * max(texel_u, texel_v) + max(pitch_x, pitch_y)
-    rect = bound.rect.grown(margin)
-
-    # Pixel centres at whole multiples of the pitch from the origin.
-    def lattice(lo: float, hi: float, pitch: float) -> tuple[float, int, float]:
-        k0, k1 = math.floor(lo / pitch), math.ceil(hi / pitch)
-        count = k1 - k0 + 1
-        if count > max_resolution:  # capped: fewer, larger pixels over the same span
-            count = max_resolution
-            pitch = (hi - lo) / (count - 1)
-            return (lo + hi) / 2, count, pitch
-        return (k0 + k1) / 2 * pitch, count, pitch
-
-    cx, cols, pitch_x = lattice(rect.x0, rect.x1, pitch_x)
-    cy, rows, pitch_y = lattice(rect.y0, rect.y1, pitch_y)
-
-    # Depth range: everything of both bodies, so that nothing in front of the target is clipped.
-    bumps = sum(max(b.max_height, 0.0) + max(b.max_dent_depth, 0.0) for b in (target, tool))
-    near_s = min(target_tris.s_range()[0], tool_tris.s_range()[0]) - bumps - 1e-4
-    far_s = max(target_tris.s_range()[1], tool_tris.s_range()[1]) + bumps + 1e-4
-    eye = np.array(
-        [
-            o + r * cx + w * cy + f * near_s
-            for o, r, w, f in zip(origin, right, up, forward, strict=True)
-        ]
-    )
-    texel = max(texel_u, texel_v)
-    half_x, half_y = cols * pitch_x / 2.0, rows * pitch_y / 2.0
-    view = Rect(cx - half_x, cx + half_x, cy - half_y, cy + half_y)
-    # A built-in sphere or capsule is dented at its texels' points on the smooth solid but
-    # clipped at their facet points, which lie up to its facet sag deeper (mesh.facet_sag).
-    sag = target.mesh.facet_sag() * column_scale(linear)
-    gather = (
-        bound.slab[0] - SLAB_MARGIN_TEXELS * texel,
-        bound.slab[1] + SLAB_MARGIN_TEXELS * texel + sag,
-    )
-    ring = RING_TEXELS * texel
-    proud = max(target.max_height, 0.0) + max(tool.max_height, 0.0)
-    # Pass 2 sees the target from the slab's near side on (a nearer surface lies behind the tool:
-    # it neither hides the slab nor takes a dent), up to its far side. Pass 3 draws the tool's
-    # faces that reach past the slab's near side (two pixels more for the bilinear neighbours at
-    # the rim): a front face nearer than that is nearer than every target surface pass 2 keeps,
-    # so leaving it out drops nothing that pass 2 or 4 would test against it.
-    return CameraDraft(
-        target=target,
-        target_tris=target_tris,
-        tool_tris=tool_tris,
-        view=view,
-        texel_view=texel_rect(target, bound.rect, 2.0 * texel, view),
-        texel_slab=(gather[0] - ring, gather[1] + ring),
-        tool_slab=(gather[0] - proud - 2.0 * max(pitch_x, pitch_y), np.inf) if tool_list else None,
-        fields={
-            "eye": eye,
-            "right": axes[0],
-            "up": axes[1],
-            "forward": axes[2],
-            "half_extent": (half_x, half_y),
-            "depth_range": (0.0, far_s - near_s),
-            "resolution": (int(cols), int(rows)),
-            "slab": (gather[0] - near_s, gather[1] - near_s),
-            "texel_metres": texel,
-        },
-    )
+    axes = np.concatenate((right[:, None], up[:, None], forward[:, None]), axis=1)
+    return _Frames(axes, origin, texel, pitch)
 
 
 def texel_rect(target: BodyPose, bound: Rect, margin: float, view: Rect) -> Rect:
