@@ -25,11 +25,6 @@ EXIT_SETTLED_METRES = 1e-7
 #: Pass 4's thickness of the tool (back minus front, metres along the view) where all four camera
 #: pixels around a position see it, or where a pixel saw no front face: well inside its outline.
 INSIDE_OUTLINE = 1e30
-#: Pass 4 takes a turn of the tool's back between two camera pixels for an edge between two flat
-#: faces (and follows each face up to the edge) only where the slope on each side runs on for one
-#: more pixel to within this share of the turn: a curve turns at every pixel, and its sides'
-#: lines would overshoot it.
-KINK_STRAIGHT = 0.25
 #: Pass 4 rounds a position to this fraction of a camera pixel before the sampler blends the
 #: tool's depth there (as fine as the filter's own weights): the same bits in any atlas tile.
 TOOL_SUBPIXELS = 256.0
@@ -61,7 +56,6 @@ def shader_defines(**extra: object) -> dict[str, object]:
         "MIN_COS": repr(float(MIN_COS)),
         "EXIT_MARCH": str(EXIT_MARCH),
         "INSIDE_OUTLINE": repr(float(INSIDE_OUTLINE)),
-        "KINK_STRAIGHT": repr(float(KINK_STRAIGHT)),
         "EXIT_STEPS": str(EXIT_STEPS),
         "TOOL_SUBPIXELS": repr(float(TOOL_SUBPIXELS)),
         "EXIT_SETTLED_METRES": repr(float(EXIT_SETTLED_METRES)),

@@ -22,7 +22,6 @@ from dentdemo.carve.constants import (
     FULL_COVERAGE,
     GUTTER_REACH_TEXELS,
     INSIDE_OUTLINE,
-    KINK_STRAIGHT,
     MIN_COS,
     NO_FRONT,
     NO_SURFACE,
@@ -333,58 +332,17 @@ def _normal_exit(
     return a
 
 
-def _across(v: list[Array], t: Array) -> tuple[Array, NDArray[np.bool_]]:
-    """exit.glsl's across(): the back along six pixels (at -2 .. 3) at t in [0, 1] between the
-    middle two, where an edge between two flat faces lies between them; and where it does."""
-    outer_left, left, mid = v[1] - v[0], v[2] - v[1], v[3] - v[2]
-    right, outer_right = v[4] - v[3], v[5] - v[4]
-    turn = left - right
-    with np.errstate(invalid="ignore", over="ignore"):
-        kink = (
-            ((left - mid) * (mid - right) > 0.0)
-            & (np.abs(outer_left - left) <= KINK_STRAIGHT * np.abs(turn))
-            & (np.abs(outer_right - right) <= KINK_STRAIGHT * np.abs(turn))
-        )
-        cross = np.where(kink, (mid - right) / np.where(kink, turn, 1.0), 0.0)
-    return np.where(t < cross, v[2] + left * t, v[3] - right * (1.0 - t)), kink
-
-
-def _line_at(
-    block: list[Array], seen: list[NDArray[np.bool_]], first: int, step: int, t: Array
-) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
-    """exit.glsl's line_at: one row (step 1) or column (step 6) of the 4 x 4 pixels from cell
-    `first` at t: (back, thickness) (k, 2) by the line through its middle two, whether they see
-    the tool, and whether neither does."""
-    b, c = first + step, first + 2 * step
-    tool = block[b] + (block[c] - block[b]) * t[:, None]
-    return tool, seen[b] & seen[c], ~seen[b] & ~seen[c]
-
-
-def _between(
-    line: list[Array], seen: list[NDArray[np.bool_]], unseen: list[NDArray[np.bool_]], t: Array
-) -> tuple[Array, NDArray[np.bool_]]:
-    """exit.glsl's between(): where the outline runs between the middle two of four lines."""
-    low = seen[1] & unseen[2]
-    high = seen[2] & unseen[1] & ~low
-    beyond_low = _beyond_outline(line[1], seen[0], line[0])
-    beyond_high = _beyond_outline(line[2], seen[3], line[3])
-    u = t[:, None]
-    tool = np.where(
-        low[:, None],
-        line[1] + (beyond_low - line[1]) * u,
-        beyond_high + (line[2] - beyond_high) * u,
-    )
-    return tool, low | high
-
-
 def _beyond_outline(near: Array, far_seen: NDArray[np.bool_], far: Array) -> Array:
     """exit.glsl's beyond_outline: (back, thickness) (k, 2) at a pixel without the tool from the
     pixel next to it that sees it and the one beyond that."""
     gain = far[:, 1] - near[:, 1]
+    fronts = np.maximum(near[:, 1], far[:, 1]) < 0.5 * INSIDE_OUTLINE  # both have a front face
     with np.errstate(invalid="ignore"):
-        linear = far_seen & (gain > 0) & (near[:, 1] < gain)
+        linear = far_seen & fronts & (gain > 0) & (near[:, 1] < gain)
     step = np.stack([near[:, 0], -np.abs(near[:, 1])], axis=1)
-    return np.where(linear[:, None], 2.0 * near - far, step)
+    extended = 2.0 * near - far
+    extended[:, 0] = np.minimum(extended[:, 0], near[:, 0])  # no deeper than near's back
+    return np.where(linear[:, None], extended, step)
 
 
 def _tool_pixels(
@@ -400,26 +358,24 @@ def _tool_pixels(
     return np.stack([value[:, 0], thickness], axis=1), inside & (value[:, 1] > 0.5)
 
 
-def _tool_sampled(tool: np.ndarray, px: Array, py: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
-    """exit.glsl's tool_at for EXIT 0: the sampler's blend of the four pixels around each
-    position where all four see the tool, else the nearest pixel's back (no outline)."""
+def _four(tool: np.ndarray, px: Array, py: Array) -> tuple:
+    """The four pixels around each position ((bx, by) the lower one, their (back, thickness) and
+    whether each sees the tool), whether all four do (the sampler's filtered coverage, with the
+    offset as exit.glsl rounds it), and the sampler's blend of their backs there."""
     rows, cols = tool.shape[:2]
     bx, by = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
-    offsets = [(k & 1, k >> 1) for k in range(4)]
-    corner, seen = zip(*(_tool_pixels(tool, bx + dx, by + dy) for dx, dy in offsets), strict=True)
-    # The sampler's blend where all four see the tool: the offset as exit.glsl rounds it.
+    corner, seen = zip(
+        *(_tool_pixels(tool, bx + (k & 1), by + (k >> 1)) for k in range(4)), strict=True
+    )
     fx = np.floor(px * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS - bx
     fy = np.floor(py * TOOL_SUBPIXELS + 0.5) / TOOL_SUBPIXELS - by
     weights = [(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy]
     coverage = sum(w * s for w, s in zip(weights, seen, strict=True))
     in_camera = (bx >= 0) & (by >= 0) & (bx + 1 < cols) & (by + 1 < rows)
-    sampled = in_camera & (coverage >= FULL_COVERAGE)
+    full = in_camera & (coverage >= FULL_COVERAGE)
     with np.errstate(divide="ignore", invalid="ignore"):
         blend = sum(w * s * c[:, 0] for w, s, c in zip(weights, seen, corner, strict=True))
-    ix, iy = np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
-    nearest, has = _tool_pixels(tool, ix, iy)
-    back = np.where(sampled, blend / np.where(sampled, coverage, 1.0), nearest[:, 0])
-    return back, np.full(len(px), INSIDE_OUTLINE), sampled | has
+    return bx, by, corner, seen, full, blend / np.where(full, coverage, 1.0)
 
 
 def _tool_at(
@@ -427,91 +383,37 @@ def _tool_at(
 ) -> tuple[Array, Array, NDArray[np.bool_]]:
     """exit.glsl's tool_at at continuous pixel positions: the tool's back (view depth, metres),
     the thickness there (INSIDE_OUTLINE well inside the outline; <= 0 outside it), and whether
-    the pixels around a position see the tool. `outline` (EXIT 1): from the pixels around it;
-    else (EXIT 0) _tool_sampled."""
+    any of the four pixels around a position sees the tool: the sampler's blend where all four
+    do; elsewhere `outline` False (EXIT 0) the nearest pixel's back, True the outline's."""
+    bx, by, corner, seen, full, sampled_back = _four(tool, px, py)
     if not outline:
-        return _tool_sampled(tool, px, py)
-    bx, by = np.floor(px).astype(np.int64), np.floor(py).astype(np.int64)
-
-    # The 4 x 4 pixels around each position and its middle two rows and columns out to six:
-    # pixel (i, j), i and j in -2 .. 3 from (bx, by), at cell (i + 2) + 6 (j + 2).
-    def cell(i: int, j: int) -> int:
-        return (i + 2) + 6 * (j + 2)
-
-    empty = (np.zeros((len(px), 2)), np.zeros(len(px), dtype=bool))
-    block: list[Array] = []
-    seen: list[NDArray[np.bool_]] = []
-    for j in range(-2, 4):
-        for i in range(-2, 4):
-            used = (-1 <= i <= 2 and -1 <= j <= 2) or 0 <= i <= 1 or 0 <= j <= 1
-            pixel, sees = _tool_pixels(tool, bx + i, by + j) if used else empty
-            block.append(pixel)
-            seen.append(sees)
-    fx, fy = px - bx, py - by
-    # The middle two rows at the column and columns at the row: the line, or an edge's sides.
-    row_back: list[Array] = []
-    column_back: list[Array] = []
-    row_edge = np.zeros(len(px), dtype=bool)
-    column_edge = np.zeros(len(px), dtype=bool)
-    for m in (0, 1):
-        for t, backs, cells in (
-            (fx, row_back, [cell(n - 2, m) for n in range(6)]),
-            (fy, column_back, [cell(m, n - 2) for n in range(6)]),
-        ):
-            values = [block[c][:, 0] for c in cells]
-            kinked, kink = _across(values, t)
-            edge = np.logical_and.reduce([seen[c] for c in cells]) & kink
-            backs.append(np.where(edge, kinked, values[2] + (values[3] - values[2]) * t))
-            if backs is row_back:
-                row_edge = row_edge | edge
-            else:
-                column_edge = column_edge | edge
-    rows_at = [_line_at(block, seen, cell(-1, j - 1), 1, fx) for j in range(4)]
-    columns_at = [_line_at(block, seen, cell(j - 1, -1), 6, fy) for j in range(4)]
-    row, row_seen, row_unseen = (list(x) for x in zip(*rows_at, strict=True))
-    column, column_seen, column_unseen = (list(x) for x in zip(*columns_at, strict=True))
-    row[1][:, 0], row[2][:, 0] = row_back
-    column[1][:, 0], column[2][:, 0] = column_back
-    # The four around the position see the tool.
-    around = row_seen[1] & row_seen[2]
-    by_rows = row_back[0] + (row_back[1] - row_back[0]) * fy
-    by_columns = column_back[0] + (column_back[1] - column_back[0]) * fx
-    back = np.where(
-        row_edge & column_edge,
-        0.5 * (by_rows + by_columns),
-        np.where(column_edge, by_columns, by_rows),
-    )
-    thickness = np.full(len(px), INSIDE_OUTLINE)
-    # The outline between two rows, or two columns, of the four.
-    by_row_lines, rows_ok = _between(row, row_seen, row_unseen, fy)
-    by_column_lines, columns_ok = _between(column, column_seen, column_unseen, fx)
-    by_line = np.where(rows_ok[:, None], by_row_lines, by_column_lines)
-    line_ok = ~around & (rows_ok | columns_ok)
-    # Elsewhere at the outline: each of the four without the tool from its neighbours.
-    value = []
-    for k in range(4):
-        cx, cy = k & 1, k >> 1
-        total, count = np.zeros((len(px), 2)), np.zeros(len(px))
+        ix, iy = np.floor(px + 0.5).astype(np.int64), np.floor(py + 0.5).astype(np.int64)
+        nearest, has = _tool_pixels(tool, ix, iy)
+        back = np.where(full, sampled_back, nearest[:, 0])
+        return back, np.full(len(px), INSIDE_OUTLINE), full | has
+    offsets = [(k & 1, k >> 1) for k in range(4)]
+    # At the outline: each pixel without the tool, the least of what its neighbours along its
+    # row and column give (beyond_outline), else its diagonal one's.
+    value = [c.copy() for c in corner]
+    for k, (dx, dy) in enumerate(offsets):
+        least = np.full((len(px), 2), INSIDE_OUTLINE)
+        found = np.zeros(len(px), dtype=bool)
         for axis in (1, 2, 3):
             j = k ^ axis
-            nx, ny = j & 1, j >> 1
-            n, m = cell(nx, ny), cell(2 * nx - cx, 2 * ny - cy)
-            use = seen[n] & ((axis != 3) | (count == 0))
-            estimate = _beyond_outline(block[n], seen[m], block[m])
-            total += np.where(use[:, None], estimate, 0.0)
-            count += use
-        at = cell(cx, cy)
-        estimated = np.where((count > 0)[:, None], total / np.maximum(count, 1)[:, None], block[at])
-        value.append(np.where(seen[at][:, None], block[at], estimated))
-    ux, uy = fx[:, None], fy[:, None]
-    blend = (value[0] * (1 - ux) + value[1] * ux) * (1 - uy) + (
+            use = ~seen[k] & seen[j] & ((axis != 3) | ~found)
+            nx, ny = bx + (j & 1), by + (j >> 1)
+            far, far_seen = _tool_pixels(tool, 2 * nx - bx - dx, 2 * ny - by - dy)
+            estimate = _beyond_outline(corner[j], far_seen, far)
+            least = np.where(use[:, None], np.minimum(least, estimate), least)
+            found |= use
+        value[k] = np.where(seen[k][:, None], corner[k], least)
+    ux, uy = (px - bx)[:, None], (py - by)[:, None]
+    edge = (value[0] * (1 - ux) + value[1] * ux) * (1 - uy) + (
         value[2] * (1 - ux) + value[3] * ux
     ) * uy
-    edge_value = np.where(line_ok[:, None], by_line, blend)
-    back = np.where(around, back, edge_value[:, 0])
-    thickness = np.where(around, thickness, edge_value[:, 1])
-    corners = [seen[cell(k & 1, k >> 1)] for k in range(4)]
-    return back, thickness, around | line_ok | np.logical_or.reduce(corners)
+    back = np.where(full, sampled_back, edge[:, 0])
+    thickness = np.where(full, INSIDE_OUTLINE, edge[:, 1])
+    return back, thickness, full | np.logical_or.reduce(seen)
 
 
 # -- texel enumeration (what passes 4 and 5 rasterise) --------------------------------------------
