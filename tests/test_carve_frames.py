@@ -1,6 +1,6 @@
 """Pass 1's camera frames, worked out for all the directions of a batch together
-(`camera._frames`, one array expression per step): each one as its definition gives it, and
-the same bits alone as in any batch."""
+(`camera._frames` over array lanes, one expression per step) or one by one (over float lanes):
+each one as its definition gives it, and the same bits alone as in any batch, either way."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import pytest
 
 from dentdemo.carve.camera import BodyPose, ContactFrame, DraftRequest, _frames
 from dentdemo.carve.constants import MIN_COS
+from dentdemo.carve.lanes import ARRAY, ONE
 from dentdemo.model.shapes import Box, Capsule, Plate, Sphere
 from surface_helpers import press_mesh
 
@@ -106,10 +107,11 @@ def _expected(request: DraftRequest):
 def test_a_batchs_camera_frames_are_each_directions_own(seed: int) -> None:
     """The frames of a batch (shapes turned and scaled, tilted presses, one edge-on plate whose
     dP/du lies along the view) are their definitions' (to 1e-12 of their size), and each one's
-    bits are those it gets alone, whatever else is in the batch and in whatever order."""
+    bits are those it gets alone, as an array lane or a float, whatever else is in the batch
+    and in whatever order."""
     requests = _requests(seed)
     requests.insert(5, _edge_on())
-    frames = _each(_frames(requests))
+    frames = _each(_frames(requests, ARRAY))
     for request, frame in zip(requests, frames, strict=True):
         axes, origin, texel, pitch, _ = _expected(request)
         assert np.allclose(frame[0], axes, rtol=0.0, atol=1e-12)
@@ -119,18 +121,22 @@ def test_a_batchs_camera_frames_are_each_directions_own(seed: int) -> None:
         assert np.allclose(frame[3], pitch, rtol=1e-12, atol=0.0)
     assert _expected(requests[5])[4]  # the edge-on plate's right is the fixed axis's
     for reordered in (requests[::-1], requests[3:9]):
-        again = {id(r): f for r, f in zip(reordered, _each(_frames(reordered)), strict=True)}
+        found = _each(_frames(reordered, ARRAY))
+        again = {id(r): f for r, f in zip(reordered, found, strict=True)}
         for request, frame in zip(requests, frames, strict=True):
             if id(request) in again:
                 _assert_same_bits(frame, again[id(request)])
     for request, frame in zip(requests, frames, strict=True):
-        (alone,) = _each(_frames([request]))
-        _assert_same_bits(frame, alone)
+        for mode in (ONE, ARRAY):
+            (alone,) = _each(_frames([request], mode))
+            _assert_same_bits(frame, alone)
 
 
 def _each(frames) -> list[tuple[np.ndarray, ...]]:
     """Each direction's (axes, origin, texel sides, pitches) of a batch's frames."""
-    return list(zip(*frames, strict=True))
+    texel = np.array(frames.texel, dtype=np.float64).reshape(2, -1).T
+    pitch = np.array(frames.pitch, dtype=np.float64).reshape(2, -1).T
+    return list(zip(frames.axes, frames.origin, texel, pitch, strict=True))
 
 
 def _assert_same_bits(a, b) -> None:

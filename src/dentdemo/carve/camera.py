@@ -18,9 +18,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from dentdemo.carve import lanes
 from dentdemo.carve.constants import MIN_COS, RING_TEXELS, SLAB_MARGIN_TEXELS
 from dentdemo.carve.footprint import Overlap, Projected, Query, Rect, meeting_many, overlap
-from dentdemo.carve.linear import column_scale
+from dentdemo.carve.linear import column_scale, cross3, dot3, inverse_rows, rows_times
 from dentdemo.mesh.mesh import Mesh
 
 Vec3 = NDArray[np.float64]
@@ -148,39 +149,36 @@ def camera_draft(
 def camera_drafts(
     requests: Sequence[DraftRequest], max_resolution: int, loose: bool = False
 ) -> list[CameraDraft | None]:
-    """`camera_draft` of each request, worked out for all of them together: their camera
-    frames (`_frames`), then each one's footprint bound (`footprint.overlap`), then the
-    lattices, depth ranges and slabs of those whose bodies can meet (`_views`), each step one
-    array expression over every direction."""
-    if not requests:
-        return []
-    frames = _frames(requests)
-    posed: list[_Posed] = []
-    for k, (target, tool, _, _, advance, _) in enumerate(requests):
-        target_tris = Projected(target.mesh, target.model, frames.origin[k], frames.axes[k])
-        tool_tris = Projected(tool.mesh, tool.model, frames.origin[k], frames.axes[k])
-        bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)
-        if bound is not None:
-            if loose:
-                bound = _loose(target_tris, tool_tris, bound)
-            posed.append(_Posed(k, target_tris, tool_tris, bound))
-    drafts: list[CameraDraft | None] = [None] * len(requests)
-    if posed:
-        for one, draft in zip(posed, _views(requests, frames, posed, max_resolution), strict=True):
-            drafts[one.at] = draft
-    return drafts
+    """`camera_draft` of each request: their camera frames (`_frames`), then each one's
+    footprint bound (`footprint.overlap`), then the lattices, depth ranges and slabs of those
+    whose bodies can meet (`_views`). From ARRAY_DIRECTIONS directions on, each step of the
+    frames and views is one array expression over all of them; fewer are worked out one by
+    one on Python floats, by the same expressions (`lanes.Lane`)."""
+    if len(requests) >= ARRAY_DIRECTIONS:
+        return _drafts(requests, max_resolution, loose, lanes.ARRAY)
+    return [
+        draft
+        for request in requests
+        for draft in _drafts([request], max_resolution, loose, lanes.ONE)
+    ]
+
+
+#: Directions from which a batch's frames and views are worked out as arrays: numpy's price
+#: per call, paid once a step, then costs less than Python's per float, paid once a direction
+#: (docs/performance.md).
+ARRAY_DIRECTIONS = 7
 
 
 class _Frames(NamedTuple):
-    """The camera frames of a batch's directions (world metres): axes (n, 3, 3: right, up,
-    forward as rows), origins (n, 3: the centre of the target texel under each contact), the
-    target's texel sides along u and v (n, 2) and the pixel pitches along x and y (n, 2,
-    before the lattice)."""
+    """The camera frames of a batch's directions (world metres): each one's axes (3 x 3:
+    right, up, forward as rows) and origin (the centre of the target texel under its
+    contact), and as lanes the target's texel sides along u and v and the pixel pitches along
+    x and y (before the lattice)."""
 
-    axes: NDArray[np.float64]
-    origin: NDArray[np.float64]
-    texel: NDArray[np.float64]
-    pitch: NDArray[np.float64]
+    axes: list[NDArray[np.float64]]
+    origin: list[NDArray[np.float64]]
+    texel: tuple[lanes.Lane, lanes.Lane]
+    pitch: tuple[lanes.Lane, lanes.Lane]
 
 
 class _Posed(NamedTuple):
@@ -193,14 +191,88 @@ class _Posed(NamedTuple):
     bound: Overlap
 
 
-def _py_max(a: NDArray[np.float64], b: NDArray[np.float64] | float) -> NDArray[np.float64]:
-    """Python's max(a, b) elementwise (b only where greater: of 0.0 and -0.0, a)."""
-    return np.where(b > a, b, a)
+def _drafts(
+    requests: Sequence[DraftRequest],
+    max_resolution: int,
+    loose: bool,
+    mode: lanes.Mode,
+) -> list[CameraDraft | None]:
+    """`camera_drafts` of `requests`, their frames and views worked out in lanes made by
+    `mode`."""
+    frames = _frames(requests, mode)
+    posed: list[_Posed] = []
+    for k, (target, tool, _, _, advance, _) in enumerate(requests):
+        target_tris = Projected(target.mesh, target.model, frames.origin[k], frames.axes[k])
+        tool_tris = Projected(tool.mesh, tool.model, frames.origin[k], frames.axes[k])
+        bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)
+        if bound is not None:
+            if loose:
+                bound = _loose(target_tris, tool_tris, bound)
+            posed.append(_Posed(k, target_tris, tool_tris, bound))
+    drafts: list[CameraDraft | None] = [None] * len(requests)
+    if posed:
+        views = _views(requests, frames, posed, max_resolution, mode)
+        for one, draft in zip(posed, views, strict=True):
+            drafts[one.at] = draft
+    return drafts
 
 
-def _py_min(a: NDArray[np.float64], b: NDArray[np.float64] | float) -> NDArray[np.float64]:
-    """Python's min(a, b) elementwise (b only where less)."""
-    return np.where(b < a, b, a)
+def _frames(requests: Sequence[DraftRequest], mode: lanes.Mode) -> _Frames:
+    """The camera frame of every request, each step one expression over the lanes (`lanes.Lane`).
+    The view looks along the press; `right` follows the target's +u tangent at the contact,
+    its pitch the target's texel as the camera sees it, a pixel spanning a whole number of
+    target texels up to one of the tool's, and the origin is the centre of the target texel
+    under the contact."""
+
+    models = [np.asarray(r.target.model, dtype=np.float64)[:3].tolist() for r in requests]
+    # Row i of the pose: (linear part's row i, translation i).
+    rows = [mode.columns([m[i] for m in models]) for i in range(3)]
+    linear = [row[:3] for row in rows]
+    forward = mode.unit(
+        mode.columns([np.asarray(r.contact.direction, dtype=np.float64).tolist() for r in requests])
+    )
+    point = mode.columns([np.asarray(r.contact.point, dtype=np.float64).tolist() for r in requests])
+    rel = tuple(p - row[3] for p, row in zip(point, rows, strict=True))
+    local = np.array(mode.rows(rows_times(inverse_rows(linear), rel)), dtype=np.float64)
+    # Each target's triangle near the contact (a mesh's own look-up), its uv extended to it.
+    surfs = [r.target.mesh.frame_near(p) for r, p in zip(requests, local, strict=True)]
+    u, v = mode.columns([s.uv.tolist() for s in surfs])
+    # World metres per uv unit.
+    dpdu = rows_times(linear, mode.columns([s.dpdu.tolist() for s in surfs]))
+    dpdv = rows_times(linear, mode.columns([s.dpdv.tolist() for s in surfs]))
+    width, height = mode.columns([[float(x) for x in r.map_size] for r in requests])
+    # Right along dP/du across the view, or a fixed axis across it where dP/du is along it.
+    right = lanes.across(dpdu, forward)
+    length_u = mode.sqrt(dot3(dpdu, dpdu))
+    along = mode.sqrt(dot3(right, right)) < 1e-9 * mode.greater(length_u, 1e-30)
+    if mode.any_of(along):
+        x_ok = abs(forward[0]) < 0.9
+        fixed = (mode.where(x_ok, 1.0, 0.0), 0.0, mode.where(x_ok, 0.0, 1.0))
+        across = lanes.across(fixed, forward)
+        right = tuple(mode.where(along, a, r) for a, r in zip(across, right, strict=True))
+    right = mode.unit(right)
+    up = cross3(right, forward)
+    # Texel pitch as the camera sees it, metres; grazing views are clamped.
+    texel_u = length_u / width
+    texel_v = mode.sqrt(dot3(dpdv, dpdv)) / height
+    pitch_x = mode.greater(abs(dot3(dpdu, right)) / width, MIN_COS * texel_u)
+    pitch_y = mode.greater(abs(dot3(dpdv, up)) / height, MIN_COS * texel_v)
+    # The tool is known to its own texels only: where the target's texels are finer, a pixel
+    # spans a whole number of them (pixel centres stay on texel centres) up to one of the
+    # tool's texels.
+    (tool_texel,) = mode.columns([[r.tool.texel_metres] for r in requests])
+    pitch_x = pitch_x * mode.greater(1.0, mode.floor(tool_texel / pitch_x))
+    pitch_y = pitch_y * mode.greater(1.0, mode.floor(tool_texel / pitch_y))
+    # A pixel centre on the centre of the texel under the contact.
+    du = (mode.floor(u * width) + 0.5) / width - u
+    dv = (mode.floor(v * height) + 0.5) / height - v
+    origin = tuple(p + a * du + b * dv for p, a, b in zip(point, dpdu, dpdv, strict=True))
+    if mode is lanes.ONE:
+        axes, origins = [np.array([right, up, forward])], [np.array(origin)]
+    else:
+        stacked = np.array([right, up, forward]).transpose(2, 0, 1)
+        axes, origins = list(np.ascontiguousarray(stacked)), list(np.array(origin).T.copy())
+    return _Frames(axes, origins, (texel_u, texel_v), (pitch_x, pitch_y))
 
 
 def _views(
@@ -208,92 +280,115 @@ def _views(
     frames: _Frames,
     posed: list[_Posed],
     max_resolution: int,
+    mode: lanes.Mode,
 ) -> list[CameraDraft]:
     """The drafts of the directions `posed` (each with its bound) of `requests`: each one's
-    lattice of pixels over its bound, depth range and slabs, one array expression per step
-    over all of them (the arithmetic one direction had on Python floats, in the same order:
-    the same bits). Pairs of x and y quantities are (m, 2) arrays."""
-    index = np.array([one.at for one in posed])
-    bounds = np.array(
-        [
-            (b.rect.x0, b.rect.x1, b.rect.y0, b.rect.y1, *b.slab)
-            for b in (one.bound for one in posed)
-        ]
+    lattice of pixels over its bound, depth range and slabs, one expression per step over the
+    lanes (`lanes.Lane`)."""
+    at = [one.at for one in posed]
+    # The frames' lanes, of the directions posed.
+    texel_u, texel_v, pitch_x, pitch_y = (
+        x[at] if isinstance(x, np.ndarray) else x for x in (*frames.texel, *frames.pitch)
     )
-    low, high, slab = bounds[:, 0:4:2], bounds[:, 1:4:2], bounds[:, 4:]
-    texel_uv, pitch = frames.texel[index], frames.pitch[index]
-    texel = np.maximum(texel_uv[:, 0], texel_uv[:, 1])
-    margin = (2.0 * texel + np.maximum(pitch[:, 0], pitch[:, 1]))[:, None]
-    low, high = low - margin, high + margin
+    x0, x1, y0, y1, slab_lo, slab_hi = mode.columns(
+        [(b.rect.x0, b.rect.x1, b.rect.y0, b.rect.y1, *b.slab) for b in (p.bound for p in posed)]
+    )
+    texel = mode.greater(texel_u, texel_v)
+    margin = 2.0 * texel + mode.greater(pitch_x, pitch_y)
+
     # Pixel centres at whole multiples of the pitch from the origin; beyond `max_resolution`
     # pixels a side, fewer larger ones over the same span.
-    k0, k1 = np.floor(low / pitch), np.ceil(high / pitch)
-    count = k1 - k0 + 1
-    capped = count > max_resolution
-    centre = np.where(capped, (low + high) / 2, (k0 + k1) / 2 * pitch)
-    pitch = np.where(capped, (high - low) / (max_resolution - 1), pitch)
-    count = np.where(capped, max_resolution, count)
-    half = count * pitch / 2.0
+    def lattice(
+        lo: lanes.Lane, hi: lanes.Lane, pitch: lanes.Lane
+    ) -> tuple[lanes.Lane, lanes.Lane, lanes.Lane]:
+        k0, k1 = mode.floor(lo / pitch), mode.ceil(hi / pitch)
+        count = k1 - k0 + 1
+        capped = count > max_resolution
+        return (
+            mode.where(capped, (lo + hi) / 2, (k0 + k1) / 2 * pitch),
+            mode.where(capped, float(max_resolution), count),
+            mode.where(capped, (hi - lo) / (max_resolution - 1), pitch),
+        )
+
+    cx, cols, pitch_x = lattice(x0 - margin, x1 + margin, pitch_x)
+    cy, rows, pitch_y = lattice(y0 - margin, y1 + margin, pitch_y)
     # Depth range: everything of both bodies, so that nothing in front of the target is
-    # clipped. Heights: each body's (max_height, max_dent_depth), target first.
-    s = np.array([(*one.target_tris.s_range(), *one.tool_tris.s_range()) for one in posed])
-    heights = np.array(
-        [
-            (r.target.max_height, r.target.max_dent_depth, r.tool.max_height, r.tool.max_dent_depth)
-            for r in (requests[one.at] for one in posed)
-        ]
+    # clipped.
+    target_lo, target_hi, tool_lo, tool_hi = mode.columns(
+        [(*one.target_tris.s_range(), *one.tool_tris.s_range()) for one in posed]
     )
-    proud_each = _py_max(heights, 0.0)
-    bumps = 0 + (proud_each[:, 0] + proud_each[:, 1]) + (proud_each[:, 2] + proud_each[:, 3])
-    near_s = _py_min(s[:, 0], s[:, 2]) - bumps - 1e-4
-    far_s = _py_max(s[:, 1], s[:, 3]) + bumps + 1e-4
-    axes = frames.axes[index]
-    eye = (
-        frames.origin[index]
-        + axes[:, 0] * centre[:, 0, None]
-        + axes[:, 1] * centre[:, 1, None]
-        + axes[:, 2] * near_s[:, None]
+    bodies = [requests[k] for k in at]
+    target_height, target_dent, tool_height, tool_dent = (
+        mode.greater(x, 0.0)
+        for x in mode.columns(
+            [
+                (
+                    r.target.max_height,
+                    r.target.max_dent_depth,
+                    r.tool.max_height,
+                    r.tool.max_dent_depth,
+                )
+                for r in bodies
+            ]
+        )
     )
+    bumps = 0 + (target_height + target_dent) + (tool_height + tool_dent)
+    near_s = mode.lesser(target_lo, tool_lo) - bumps - 1e-4
+    far_s = mode.greater(target_hi, tool_hi) + bumps + 1e-4
+    axes = [frames.axes[k] for k in at]
+    flat = mode.columns([a.ravel().tolist() for a in axes])
+    right, up, forward = flat[0:3], flat[3:6], flat[6:9]
+    origin = mode.columns([frames.origin[k].tolist() for k in at])
+    eye = tuple(
+        o + r * cx + w * cy + f * near_s
+        for o, r, w, f in zip(origin, right, up, forward, strict=True)
+    )
+    half_x, half_y = cols * pitch_x / 2.0, rows * pitch_y / 2.0
     # A built-in sphere or capsule is dented at its texels' points on the smooth solid but
     # clipped at their facet points, which lie up to its facet sag deeper (mesh.facet_sag).
-    sag = np.array(
+    sag = mode.lane(
         [
             r.target.mesh.facet_sag() * column_scale(np.asarray(r.target.model)[:3, :3])
-            for r in (requests[one.at] for one in posed)
+            for r in bodies
         ]
     )
-    gather_lo = slab[:, 0] - SLAB_MARGIN_TEXELS * texel
-    gather_hi = slab[:, 1] + SLAB_MARGIN_TEXELS * texel + sag
+    gather_lo = slab_lo - SLAB_MARGIN_TEXELS * texel
+    gather_hi = slab_hi + SLAB_MARGIN_TEXELS * texel + sag
     ring = RING_TEXELS * texel
-    proud = proud_each[:, 0] + proud_each[:, 2]
+    proud = target_height + tool_height
     # Pass 2 sees the target from the slab's near side on (a nearer surface lies behind the
     # tool: it neither hides the slab nor takes a dent), up to its far side. Pass 3 draws the
     # tool's faces that reach past the slab's near side (two pixels more for the bilinear
     # neighbours at the rim): a front face nearer than that is nearer than every target
     # surface pass 2 keeps, so leaving it out drops nothing that pass 2 or 4 would test
     # against it.
-    tool_near = gather_lo - proud - 2.0 * np.maximum(pitch[:, 0], pitch[:, 1])
-    columns = zip(
-        (centre - half).tolist(),
-        (centre + half).tolist(),
-        half.tolist(),
-        count.astype(np.int64).tolist(),
-        texel.tolist(),
-        (gather_lo - ring).tolist(),
-        (gather_hi + ring).tolist(),
-        tool_near.tolist(),
-        (far_s - near_s).tolist(),
-        (gather_lo - near_s).tolist(),
-        (gather_hi - near_s).tolist(),
-        strict=True,
+    tool_near = gather_lo - proud - 2.0 * mode.greater(pitch_x, pitch_y)
+    outputs = (
+        cx - half_x,
+        cx + half_x,
+        cy - half_y,
+        cy + half_y,
+        half_x,
+        half_y,
+        cols,
+        rows,
+        texel,
+        gather_lo - ring,
+        gather_hi + ring,
+        tool_near,
+        far_s - near_s,
+        gather_lo - near_s,
+        gather_hi - near_s,
+        *eye,
     )
+    columns = mode.rows(outputs)
     drafts = []
-    for one, eye_k, (lo, hi, (half_x, half_y), cols, texel_k, *slabs, depth, near, far) in zip(
-        posed, eye, columns, strict=True
-    ):
+    for one, frame, values in zip(posed, axes, columns, strict=True):
+        (vx0, vx1, vy0, vy1, hx, hy, nx, ny, texel_k, lo, hi, tool_s, depth, near, far) = values[
+            :15
+        ]
         request = requests[one.at]
-        view = Rect(lo[0], hi[0], lo[1], hi[1])
-        frame = frames.axes[one.at]
+        view = Rect(vx0, vx1, vy0, vy1)
         drafts.append(
             CameraDraft(
                 target=request.target,
@@ -301,109 +396,22 @@ def _views(
                 tool_tris=one.tool_tris,
                 view=view,
                 texel_view=texel_rect(request.target, one.bound.rect, 2.0 * texel_k, view),
-                texel_slab=(slabs[0], slabs[1]),
-                tool_slab=(slabs[2], np.inf) if request.tool_list else None,
+                texel_slab=(lo, hi),
+                tool_slab=(tool_s, np.inf) if request.tool_list else None,
                 fields={
-                    "eye": eye_k,
+                    "eye": np.array(values[15:]),
                     "right": frame[0],
                     "up": frame[1],
                     "forward": frame[2],
-                    "half_extent": (half_x, half_y),
+                    "half_extent": (hx, hy),
                     "depth_range": (0.0, depth),
-                    "resolution": (cols[0], cols[1]),
+                    "resolution": (int(nx), int(ny)),
                     "slab": (near, far),
                     "texel_metres": texel_k,
                 },
             )
         )
     return drafts
-
-
-def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """dot3 of the vectors along the last axis of `a` and `b`, summed in dot3's order."""
-    p = a * b
-    return p[..., 0] + p[..., 1] + p[..., 2]
-
-
-def _matrix_rows(m: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """rows_times of each (3, 3) `m` (n, 3, 3) and its vector `v` (n, 3)."""
-    return _dot(m, v[:, None, :])
-
-
-def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """cross3 of the vectors along the last axis of `a` and `b` (component k: a[k+1] b[k+2]
-    less a[k+2] b[k+1])."""
-    return a[..., _NEXT] * b[..., _AFTER] - a[..., _AFTER] * b[..., _NEXT]
-
-
-#: Each component's next and the one after (cyclic): the cross product's factors.
-_NEXT, _AFTER = [1, 2, 0], [2, 0, 1]
-
-
-def _unit_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """`_unit` of rows (n, 3)."""
-    return v * (1.0 / np.maximum(np.sqrt(_dot(v, v)), 1e-30))[:, None]
-
-
-def _across_rows(v: NDArray[np.float64], unit: NDArray[np.float64]) -> NDArray[np.float64]:
-    """`_across` of rows (n, 3)."""
-    return v - _dot(v, unit)[:, None] * unit
-
-
-def _inverses(m: NDArray[np.float64]) -> NDArray[np.float64]:
-    """`linear.inverse3` of each (3, 3) `m` (n, 3, 3): the same cofactors (row k of the
-    adjugate is the cross product of columns k + 1 and k + 2), the same determinant."""
-    columns = m.transpose(0, 2, 1)
-    adjugate = _cross(columns[:, _NEXT], columns[:, _AFTER])
-    det = _dot(m[:, 0], adjugate[:, :, 0])
-    if ((det == 0.0) | (det != det)).any():
-        raise ValueError("singular 3x3 matrix")
-    return adjugate * (1.0 / det)[:, None, None]
-
-
-def _frames(requests: Sequence[DraftRequest]) -> _Frames:
-    """The camera frame of every request, each step one array expression over all of them: the
-    arithmetic of one direction on Python floats, in the same order, so the same bits (where
-    Python's max would pick one of two equal values, they are the same float here). The view
-    looks along the press; `right` follows the target's +u tangent at the contact, its pitch
-    the target's texel as the camera sees it, a pixel spanning a whole number of target
-    texels up to one of the tool's, and the origin is the centre of the target texel under
-    the contact. Pairs of u and v quantities are (n, 2) arrays."""
-    models = np.array([r.target.model for r in requests], dtype=np.float64)
-    linear = models[:, :3, :3]
-    forward = _unit_rows(np.array([r.contact.direction for r in requests], dtype=np.float64))
-    point = np.array([r.contact.point for r in requests], dtype=np.float64)
-    local = _matrix_rows(_inverses(linear), point - models[:, :3, 3])
-    # Each target's triangle near the contact (a mesh's own look-up), its uv extended to it.
-    surfs = [r.target.mesh.frame_near(p) for r, p in zip(requests, local, strict=True)]
-    uv = np.array([s.uv for s in surfs], dtype=np.float64)
-    # World metres per unit of u and of v (n, 2, 3).
-    local_tangents = np.array([(s.dpdu, s.dpdv) for s in surfs], dtype=np.float64)
-    tangents = _dot(linear[:, None], local_tangents[:, :, None])
-    lengths = np.sqrt(_dot(tangents, tangents))
-    size = np.array([r.map_size for r in requests], dtype=np.float64)
-    # `_axes`: right along dP/du across the view, or a fixed axis where dP/du is along it.
-    right = _across_rows(tangents[:, 0], forward)
-    along = np.sqrt(_dot(right, right)) < 1e-9 * np.maximum(lengths[:, 0], 1e-30)
-    if along.any():
-        fixed = np.where((np.abs(forward[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
-        right = np.where(along[:, None], _across_rows(fixed, forward), right)
-    right = _unit_rows(right)
-    up = _cross(right, forward)
-    # Texel pitch as the camera sees it (x from u, y from v), metres; grazing views are clamped.
-    texel = lengths / size
-    seen = np.abs(_dot(tangents, np.concatenate((right[:, None], up[:, None]), axis=1))) / size
-    pitch = np.maximum(seen, MIN_COS * texel)
-    # The tool is known to its own texels only: where the target's texels are finer, a pixel
-    # spans a whole number of them (pixel centres stay on texel centres) up to one of the
-    # tool's texels.
-    tool_texel = np.array([r.tool.texel_metres for r in requests], dtype=np.float64)
-    pitch = pitch * np.maximum(np.floor(tool_texel[:, None] / pitch), 1.0)
-    # A pixel centre on the centre of the texel under the contact.
-    shift = (np.floor(uv * size) + 0.5) / size - uv
-    origin = point + tangents[:, 0] * shift[:, 0, None] + tangents[:, 1] * shift[:, 1, None]
-    axes = np.concatenate((right[:, None], up[:, None], forward[:, None]), axis=1)
-    return _Frames(axes, origin, texel, pitch)
 
 
 def texel_rect(target: BodyPose, bound: Rect, margin: float, view: Rect) -> Rect:

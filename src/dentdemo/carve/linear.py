@@ -5,6 +5,7 @@ overhead alone."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,18 +30,24 @@ def rows_times(rows: Sequence[Sequence[float]], v: Sequence[float]) -> Floats3:
 def inverse3(m: NDArray[np.float64]) -> NDArray[np.float64]:
     """The inverse of the 3 x 3 matrix `m` (the linear part of a pose), by cofactors.
     A singular `m` raises ValueError (a pose always has a non-zero scale)."""
-    (a, b, c), (d, e, f), (g, h, i) = m.tolist()
+    return np.array(inverse_rows(m.tolist()))
+
+
+def inverse_rows(m: Sequence[Sequence[Any]]) -> tuple[tuple[Any, Any, Any], ...]:
+    """`inverse3` of a matrix given as its rows, of Python floats or of arrays of them
+    (carve/lanes.py: each array one entry of many matrices, inverted together with the same
+    bits). A singular matrix (any, of arrays) raises ValueError."""
+    (a, b, c), (d, e, f), (g, h, i) = m
     ei_fh, fg_di, dh_eg = e * i - f * h, f * g - d * i, d * h - e * g
     det = a * ei_fh + b * fg_di + c * dh_eg
-    if det == 0.0 or det != det:
+    singular = (det == 0.0) | (det != det)
+    if singular.any() if isinstance(singular, np.ndarray) else singular:
         raise ValueError("singular 3x3 matrix")
     r = 1.0 / det
-    return np.array(
-        [
-            [ei_fh * r, (c * h - b * i) * r, (b * f - c * e) * r],
-            [fg_di * r, (a * i - c * g) * r, (c * d - a * f) * r],
-            [dh_eg * r, (b * g - a * h) * r, (a * e - b * d) * r],
-        ]
+    return (
+        (ei_fh * r, (c * h - b * i) * r, (b * f - c * e) * r),
+        (fg_di * r, (a * i - c * g) * r, (c * d - a * f) * r),
+        (dh_eg * r, (b * g - a * h) * r, (a * e - b * d) * r),
     )
 
 
