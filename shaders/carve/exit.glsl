@@ -128,51 +128,41 @@ float exit_bound(vec3 rel, vec3 n, float depth, float stretch) {
 }
 
 // The inward distance a (metres) at which the texel's point leaves the swept solid. `f0` < 0: how
-// far inside it the point itself lies (beyond's measure); `a0` > 0: the view-line estimate. A
-// march from a0 (doubling, or twice the secant's step where that is longer, up to four times)
-// brackets the exit between a point inside (lo) and one out of the solid (hi) in at most
-// EXIT_MARCH look-ups, the last at exit_bound; false position with the Illinois step then narrows
-// the bracket (bisection while hi has no measure, or after a step that did not halve it), at most
-// EXIT_STEPS look-ups, and the root of the last bracket is the answer.
-float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float f0, float a0) {
+// far inside it the point itself lies (beyond's measure). Every distance the search looks at is
+// fixed before it looks at the tool: a march outwards by factors of two from EXIT_FIRST_METRES
+// brackets the first exit between a point inside (lo) and one out of the solid (hi) in at most
+// EXIT_MARCH look-ups, the last at exit_bound; EXIT_STEPS bisections narrow the bracket, and the
+// root of the line through its ends is the answer. So a smaller tool never answers farther
+// (monotone): the same press again, whose tool the first press dented (both directions read the
+// heights from before the hit: the first tool less its dent), writes no texel deeper, and MIN
+// keeps every bit. (False position from the view-line estimate looked at distances that depend
+// on the tool, and its repeat deepened a mesh by up to a few micrometres.)
+float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float f0) {
     float far = exit_bound(rel, n, depth, stretch);
     float lo = 0.0, f_lo = f0;
-    float hi = min(a0, far), f_hi;
+    float hi = min(EXIT_FIRST_METRES, far), f_hi;
     bool on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
-    if (on_hi && abs(f_hi) <= EXIT_SETTLED_METRES) return hi;  // the tool's back is flat here
     for (int k = 0; k < EXIT_MARCH && on_hi && f_hi < 0.0; ++k) {  // still inside: look further
-        float next = 2.0 * hi;
-        if (f_hi > f_lo) next = clamp(hi - 2.0 * f_hi * (hi - lo) / (f_hi - f_lo), next, 4.0 * hi);
-        next = k == EXIT_MARCH - 1 ? far : min(next, far);
         lo = hi;
         f_lo = f_hi;
-        hi = next;
+        hi = k == EXIT_MARCH - 1 ? far : min(2.0 * hi, far);
         on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
     }
     if (on_hi && f_hi < 0.0) return hi;  // inside at the bound (the depth range misses the tool)
-    int kept = 0;  // the end the last step kept: 1 hi, -1 lo (Illinois: halve it if kept twice)
-    float width = 2.0 * (hi - lo);  // the bracket's width before the last step
     for (int k = 0; k < EXIT_STEPS; ++k) {
-        // A step that did not halve the bracket (a plateau: the point moving along a face of
-        // the tool) is followed by a bisection, so the bracket halves at least every two steps.
-        bool halve = !on_hi || hi - lo > 0.5 * width;
-        width = hi - lo;
-        float a = halve ? 0.5 * (lo + hi) : (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
-        float f;
+        float a = 0.5 * (lo + hi), f;
         bool on = beyond(rel, n, depth, stretch, a, f);
-        if (on && abs(f) <= EXIT_SETTLED_METRES) return a;
         if (on && f < 0.0) {
             lo = a;
             f_lo = f;
-            if (kept == 1) f_hi *= 0.5;
-            kept = 1;
         } else {
             hi = a;
             f_hi = f;
             on_hi = on;
-            if (kept == -1) f_lo *= 0.5;
-            kept = -1;
         }
     }
-    return on_hi ? (lo * f_hi - hi * f_lo) / (f_hi - f_lo) : 0.5 * (lo + hi);
+    // The line's root lo + (hi - lo) x / (x + y), x = -f_lo > 0, y = f_hi >= 0, written so that
+    // each operation rounds monotonically: nearer where either end lies farther out. Where hi has
+    // no measure (off the tool), the middle.
+    return on_hi ? lo + (hi - lo) / (1.0 + f_hi / -f_lo) : 0.5 * (lo + hi);
 }

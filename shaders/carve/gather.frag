@@ -8,9 +8,9 @@
 // the back of the solid the tool sweeps from first touch. The new height moves the texel's point
 // inwards along its normal until it leaves that solid: the a >= 0 (metres) with
 //     a = (tool depth at the pixel of (point - a normal) - surface depth) / max(cos, MIN_COS)
-// (cos = cos(normal, -forward)), or where the moved point's view line leaves the tool's outline,
-// found from the view-line estimate at the point's own pixel (exact, and no search, when the
-// normal is the press direction) by a march and false position (exit.glsl). h = -a. It does not
+// (cos = cos(normal, -forward)), or where the moved point's view line leaves the tool's outline:
+// the view-line estimate at the point's own pixel where the normal is the press direction (exact,
+// no search), else a march and bisection monotone in the tool (exit.glsl). h = -a. It does not
 // depend on the old height, so an identical press writes identical values; blending MIN keeps the
 // deeper of old and new (dents only deepen, presses are idempotent).
 #ifndef EXIT
@@ -109,7 +109,7 @@ void main() {
 #if EXIT  // some normal of the footprint is not the press direction (a variant: a software
           // rasteriser runs an if's body for every fragment, so square-on presses leave it out)
     if (inward > 0.0 && cos_view < 1.0 - 1e-6)
-        inward = normal_exit(rel, n, depth, stretch, max(depth - tool, -thickness), inward);
+        inward = normal_exit(rel, n, depth, stretch, max(depth - tool, -thickness));
 #endif
     float h = -inward;
     if (!(h < u_ceiling)) discard;  // the tool does not reach this texel

@@ -15,13 +15,15 @@ NO_FRONT = 1e30
 #: front face at the same pixel: float32 rounding of two depths computed at one pixel centre.
 FRONT_TOLERANCE = 1e-6
 #: Pass 4 finds how far a texel's point moves inwards along its normal to leave the tool's swept
-#: solid: a march from the view-line estimate brackets the exit in at most EXIT_MARCH look-ups of
-#: the tool's extent (the last at a distance where the point is out for certain), then false
-#: position (Illinois) narrows it in at most EXIT_STEPS, stopping once the moved point lies within
-#: EXIT_SETTLED_METRES of the solid's boundary. A press along the surface normal needs none.
-EXIT_MARCH = 12
+#: solid at distances fixed before it looks at the tool (so a smaller tool never answers farther:
+#: the same press again writes the same bits): a march outwards by factors of two from
+#: EXIT_FIRST_METRES brackets the first exit in at most EXIT_MARCH look-ups of the tool's extent
+#: (the last at a distance where the point is out for certain; 2.6 m before that), then
+#: EXIT_STEPS bisections narrow it (to 1/65536) and the line through its ends gives the root. A
+#: press along the surface normal needs none.
+EXIT_FIRST_METRES = 1e-5
+EXIT_MARCH = 19
 EXIT_STEPS = 16
-EXIT_SETTLED_METRES = 1e-7
 #: Pass 4's thickness of the tool (back minus front, metres along the view) where all four camera
 #: pixels around a position see it, or where a pixel saw no front face: well inside its outline.
 INSIDE_OUTLINE = 1e30
@@ -54,11 +56,11 @@ def shader_defines(**extra: object) -> dict[str, object]:
         "FRONT_TOLERANCE": repr(float(FRONT_TOLERANCE)),
         "FULL_COVERAGE": repr(float(FULL_COVERAGE)),
         "MIN_COS": repr(float(MIN_COS)),
+        "EXIT_FIRST_METRES": repr(float(EXIT_FIRST_METRES)),
         "EXIT_MARCH": str(EXIT_MARCH),
         "INSIDE_OUTLINE": repr(float(INSIDE_OUTLINE)),
         "EXIT_STEPS": str(EXIT_STEPS),
         "TOOL_SUBPIXELS": repr(float(TOOL_SUBPIXELS)),
-        "EXIT_SETTLED_METRES": repr(float(EXIT_SETTLED_METRES)),
         "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),
         "NO_SURFACE": repr(float(NO_SURFACE)),
         **{

@@ -16,8 +16,8 @@ from dentdemo.carve.camera import CollisionCamera, ContactFrame
 from dentdemo.carve.carver import CarveBody, CarveJob, Carver
 from dentdemo.carve.constants import (
     CHART_SELF,
+    EXIT_FIRST_METRES,
     EXIT_MARCH,
-    EXIT_SETTLED_METRES,
     EXIT_STEPS,
     FULL_COVERAGE,
     GUTTER_REACH_TEXELS,
@@ -234,7 +234,6 @@ def gather(
                 depth[moving],
                 stretch[moving],
                 np.maximum(depth - tool_depth, -thickness)[moving],
-                inward[moving],
             )
         h = -inward
     seen &= h < ceiling
@@ -266,70 +265,42 @@ def _normal_exit(
     depth: Array,
     stretch: Array,
     f0: Array,
-    a0: Array,
 ) -> Array:
-    """exit.glsl's normal_exit for many texels at once: a march from the view-line estimate `a0`
-    brackets the exit between a point inside the swept solid (lo) and one out of it (hi), then
-    false position with the Illinois step narrows the bracket; metres inwards. `f0`: how far
-    inside the solid each point itself lies (metres along the view, < 0)."""
+    """exit.glsl's normal_exit for many texels at once: a march outwards by factors of two from
+    EXIT_FIRST_METRES brackets the first exit between a point inside the swept solid (lo) and
+    one out of it (hi), bisection narrows the bracket, and the line through its ends gives the
+    root; metres inwards. Every distance looked at is fixed before the tool is (monotone in the
+    tool). `f0`: how far inside the solid each point itself lies (metres along the view, < 0)."""
 
     def beyond(a: Array, which: NDArray[np.int64]) -> tuple[Array, NDArray[np.bool_]]:
         back, thickness, on = tool_at(rel[which] - n[which] * a[:, None])
         return np.maximum(depth[which] + a / stretch[which] - back, -thickness), on
 
     far = _exit_bound(cam, rel, n, depth, stretch)
-    every = np.arange(len(a0))
-    lo, f_lo, hi = np.zeros_like(a0), f0.copy(), np.minimum(a0, far)
+    every = np.arange(len(f0))
+    lo, f_lo, hi = np.zeros_like(f0), f0.copy(), np.minimum(EXIT_FIRST_METRES, far)
     f_hi, on_hi = beyond(hi, every)
-    a = hi.copy()
-    active = ~(on_hi & (np.abs(f_hi) <= EXIT_SETTLED_METRES))  # the tool's back is flat here
     for k in range(EXIT_MARCH):  # still inside: look further
-        i = np.flatnonzero(active & on_hi & (f_hi < 0.0))
+        i = np.flatnonzero(on_hi & (f_hi < 0.0))
         if len(i) == 0:
             break
-        step = 2.0 * hi[i]
-        rising = f_hi[i] > f_lo[i]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            secant = hi[i] - 2.0 * f_hi[i] * (hi[i] - lo[i]) / (f_hi[i] - f_lo[i])
-        step = np.where(rising, np.clip(secant, step, 4.0 * hi[i]), step)
-        step = far[i] if k == EXIT_MARCH - 1 else np.minimum(step, far[i])
+        step = far[i] if k == EXIT_MARCH - 1 else np.minimum(2.0 * hi[i], far[i])
         lo[i], f_lo[i], hi[i] = hi[i], f_hi[i], step
         f_hi[i], on_hi[i] = beyond(step, i)
-    stuck = active & on_hi & (f_hi < 0.0)  # inside at the bound (the depth range misses the tool)
-    a[stuck] = hi[stuck]
-    active &= ~stuck
-
-    def root(i: NDArray[np.int64], halve: NDArray[np.bool_]) -> Array:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            secant = (lo[i] * f_hi[i] - hi[i] * f_lo[i]) / (f_hi[i] - f_lo[i])
-        return np.where(on_hi[i] & ~halve, secant, 0.5 * (lo[i] + hi[i]))
-
-    kept = np.zeros(len(a0), dtype=np.int64)  # the end the last step kept: 1 hi, -1 lo
-    width = 2.0 * (hi - lo)  # the bracket's width before the last step
+    stuck = on_hi & (f_hi < 0.0)  # inside at the bound (the depth range misses the tool)
     for _ in range(EXIT_STEPS):
-        i = np.flatnonzero(active)
-        if len(i) == 0:
-            break
-        # After a step that did not halve the bracket, a bisection (exit.glsl).
-        halve = hi[i] - lo[i] > 0.5 * width[i]
-        width[i] = hi[i] - lo[i]
-        step = root(i, halve)
-        f, on = beyond(step, i)
-        done = on & (np.abs(f) <= EXIT_SETTLED_METRES)
-        a[i[done]] = step[done]
-        active[i[done]] = False
-        inside = on & (f < 0.0) & ~done
-        out = ~inside & ~done
-        lo[i[inside]], f_lo[i[inside]] = step[inside], f[inside]
-        twice = i[inside & (kept[i] == 1)]  # Illinois: an end kept twice counts half
-        f_hi[twice] *= 0.5
-        twice = i[out & (kept[i] == -1)]
-        hi[i[out]], f_hi[i[out]], on_hi[i[out]] = step[out], f[out], on[out]
-        f_lo[twice] *= 0.5
-        kept[i[inside]], kept[i[out]] = 1, -1
-    i = np.flatnonzero(active)
-    a[i] = root(i, np.zeros(len(i), dtype=bool))
-    return a
+        mid = 0.5 * (lo + hi)
+        f, on = beyond(mid, every)
+        inside = on & (f < 0.0)
+        lo, f_lo = np.where(inside, mid, lo), np.where(inside, f, f_lo)
+        hi, f_hi, on_hi = (
+            np.where(inside, hi, mid),
+            np.where(inside, f_hi, f),
+            np.where(inside, on_hi, on),
+        )
+    with np.errstate(divide="ignore", invalid="ignore"):
+        root = np.where(on_hi, lo + (hi - lo) / (1.0 + f_hi / -f_lo), 0.5 * (lo + hi))
+    return np.where(stuck, hi, root)
 
 
 def _beyond_outline(near: Array, far_seen: NDArray[np.bool_], far: Array) -> Array:
