@@ -15,7 +15,14 @@ A long path is cut into equal segments, each short enough that its footprint fit
 camera at the target's texel pitch (`Carver.max_resolution` pixels): a camera's pixels otherwise
 grow past a micron groove's width. Collinear capsules (and boxes) that share their end points
 union to the one long solid, and the carve keeps the deeper height (MIN) where they overlap, so
-the segments leave the same groove as one press of the whole path would."""
+the segments leave the same groove as one press of the whole path would.
+
+On a sphere the path is an arc of a great circle, `distance` long on the surface, and each segment
+a chord of it (a capsule square-on to the surface at the chord's middle): the chord sags below the
+arc by L^2 / (8 (R + r)) at its ends, so the segments are kept short enough that the sag is at
+most SAG_FRACTION of the groove's depth, and each is pressed a third of its sag deeper (the depth
+along a chord, d + sag/3 - x^2 / (2 (R + r)), then averages d). The groove's cross-section is the
+lens the tool's circle cuts from the ball's (`wear.lens_area`), its ends the two balls' overlap."""
 
 from __future__ import annotations
 
@@ -34,6 +41,7 @@ from dentdemo.carve.surface import create_maps
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
 from dentdemo.gpu.mesh import GpuMesh
+from dentdemo.mesh.primitives import sphere_texel_areas
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.model import wear
 from dentdemo.model.materials import Material
@@ -49,6 +57,9 @@ MIN_AUTO_MAP = 256
 #: Pixels a segment's footprint may take along the path, of the camera's `max_resolution`: the
 #: rest is the camera's margin (two texels and a pixel each side) with room.
 SEGMENT_PIXELS = 0.9
+#: The most a segment's chord may sag below a sphere target's arc, a fraction of the groove's
+#: depth: the groove's depth along the path stays within -2/3 .. +1/3 of it about d.
+SAG_FRACTION = 0.1
 #: A height below this counts as grooved, metres (float32 holds a pristine 0 exactly).
 GROOVED = 0.0
 
@@ -85,13 +96,28 @@ class Groove:
         return self.area * distance + self.ends_volume
 
 
-def groove_for(tool: Shape, target: Material, drag: Drag) -> Groove:
+def groove_for(
+    tool: Shape, target: Material, drag: Drag, target_shape: Shape | None = None
+) -> Groove:
     """The groove `tool` wears into a `target` body: V = K F s / H with the target's own K and H,
-    spread over the path so that A(d) * distance = V."""
+    spread over the path so that A(d) * distance = V (on a sphere target, A the lens a sphere
+    tool's circle cuts from the ball's; the ball's curvature across the path narrows it)."""
     volume = wear.archard_volume(
         target.wear_coefficient, drag.load_n, drag.slide_m, target.hardness
     )
     area = volume / drag.distance_m
+    match tool, target_shape:
+        case Sphere(radius=r), Sphere(radius=big):
+            depth = wear.lens_groove_depth(big, r, area)
+            return Groove(
+                volume,
+                area,
+                depth,
+                _lens_half_width(big, r, depth),
+                wear.ball_lens_volume(big, r, depth),
+            )
+        case _, Sphere():
+            raise DentdemoError("--tool: a sphere target is scratched with a sphere tool")
     match tool:
         case Sphere(radius=r):
             depth = wear.sphere_groove_depth(r, area)
@@ -102,6 +128,16 @@ def groove_for(tool: Shape, target: Material, drag: Drag) -> Groove:
             depth = wear.box_groove_depth(x, area)
             return Groove(volume, area, depth, x / 2, x * z * depth)
     raise DentdemoError(f"--tool: a scratch takes a sphere or a box, got {type(tool).__name__}")
+
+
+def _lens_half_width(big: float, r: float, depth: float) -> float:
+    """Half the width at the surface of a sphere's groove `depth` deep in a ball of radius `big`,
+    m: the distance of the two circles' crossing from the line through their centres."""
+    if depth <= 0:
+        return 0.0
+    c = big + r - depth
+    along = (c * c + r * r - big * big) / (2.0 * c)
+    return math.sqrt(max(r * r - along * along, 0.0))
 
 
 def swept(tool: Shape, length: float) -> Shape:
@@ -129,6 +165,9 @@ class ScratchSetup:
     drag: Drag
     segments: list[CarveBody]
     segment_length: float
+    #: How far each segment is pressed, m: the groove's depth, plus a third of a chord's sag on
+    #: a sphere.
+    press_depth: float
 
     def release(self) -> None:
         """The GL objects of both bodies (the segments share one mesh and one map)."""
@@ -148,9 +187,14 @@ def auto_map_size(target: Shape, groove: Groove) -> int:
     return int(min(max(wanted, MIN_AUTO_MAP), MAX_AUTO_MAP))
 
 
-def target_for(kind: str, drag: Drag, groove: Groove, tool: Shape) -> Shape:
+def target_for(
+    kind: str, drag: Drag, groove: Groove, tool: Shape, radius: float | None = None
+) -> Shape:
     """A plate, or a cube, whose upper face holds the whole groove with a margin of its own
-    width each side (and, a box tool, its print)."""
+    width each side (and, a box tool, its print); or a sphere of `radius` (default: the
+    distance, so that the path is an arc of one radian)."""
+    if kind == "sphere":
+        return Sphere(radius if radius is not None else drag.distance_m)
     extent = tool.size[2] if isinstance(tool, Box) else 0.0
     side = drag.distance_m + extent + 6.0 * max(groove.half_width, 1e-4)
     return Box((side, side, side)) if kind == "box" else Plate(side)
@@ -172,10 +216,13 @@ def make_scratch(
     map_size: int,
     heading: float = 0.0,
     max_resolution: int = 1023,
+    arc_middle: float = 0.0,
 ) -> ScratchSetup:
     """The target, and the path centred on the middle of its upper face along `heading` (radians
-    from +x towards +z), cut into segments that each fit one collision camera."""
-    groove = groove_for(tool, material, drag)
+    from +x towards +z), cut into segments that each fit one collision camera. On a sphere the
+    path is the great circle through its top along `heading`, its middle `arc_middle` radians along
+    it from the top."""
+    groove = groove_for(tool, material, drag, target_shape)
     target_gpu = GpuMesh(gl, shape_mesh(target_shape, Tessellation.press(2)))
     maps = create_maps(gl, target_gpu, map_size, material.max_dent_depth)
     target = CarveBody(target_gpu, maps)
@@ -190,8 +237,14 @@ def make_scratch(
             f"--map-size: the tool's print ({extent:g} m) does not fit one carve camera at "
             f"{texel:g} m a texel; use a coarser map"
         )
-    count = max(1, math.ceil(drag.distance_m / longest))
-    length = drag.distance_m / count
+    poses: list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
+    if isinstance(target_shape, Sphere) and isinstance(tool, Sphere):
+        radius = target_shape.radius
+        start, poses, length, sag = _arc(radius, tool, groove, drag, longest, heading, arc_middle)
+    else:
+        count = max(1, math.ceil(drag.distance_m / longest))
+        length, sag = drag.distance_m / count, 0.0
+        poses = [(start + direction * (i + 0.5) * length, normal, direction) for i in range(count)]
     solid = swept(tool, length)
     tool_mesh = shape_mesh(solid, Tessellation.press(2))
     tool_gpu = GpuMesh(gl, tool_mesh)
@@ -199,13 +252,11 @@ def make_scratch(
     su, sv = tool_mesh.uv_scale()
     tool_side = min(max(16, math.ceil(max(su, sv) / texel)), 8192)
     tool_maps = create_maps(gl, tool_gpu, tool_side, 0.0)
-    # Tool frame: local z along the path, local y along the face's normal (out of the target).
-    across = np.cross(normal, direction)
-    rotation = np.column_stack([across, normal, direction])
-    lift = rotation @ support(solid, np.array([0.0, -1.0, 0.0]))
     segments = []
-    for i in range(count):
-        mid = start + direction * (i + 0.5) * length
+    for mid, up, along in poses:
+        # Tool frame: local z along the path, local y along the surface's normal (outwards).
+        rotation = np.column_stack([np.cross(up, along), up, along])
+        lift = rotation @ support(solid, np.array([0.0, -1.0, 0.0]))
         segments.append(CarveBody(tool_gpu, tool_maps, _pose(rotation, mid - lift)))
     return ScratchSetup(
         target,
@@ -218,7 +269,48 @@ def make_scratch(
         drag,
         segments,
         length,
+        groove.depth + sag / 3.0,
     )
+
+
+def _arc(
+    radius: float,
+    tool: Sphere,
+    groove: Groove,
+    drag: Drag,
+    longest: float,
+    heading: float,
+    middle: float,
+) -> tuple[
+    NDArray[np.float64],
+    list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]],
+    float,
+    float,
+]:
+    """A sphere's path: its start (world, on the surface), each chord's middle on the surface
+    with the outward normal and the chord's direction there, the chord's length and its sag
+    (how much farther from the centre its ends lie than its middle), m. Equal arcs, at most
+    `longest` on the surface each (one camera) and short enough that the sag is at most
+    SAG_FRACTION of the groove's depth."""
+    axis = radius + tool.radius  # the swept sphere's axis, touching at a chord's middle
+    tangent = math.sqrt(8.0 * axis * SAG_FRACTION * max(groove.depth, 1e-12)) * radius / axis
+    count = max(1, math.ceil(drag.distance_m / min(longest, tangent)))
+    step = drag.distance_m / radius / count  # radians
+    top = np.array([0.0, 1.0, 0.0])
+    way = np.array([math.cos(heading), 0.0, math.sin(heading)])
+
+    def at(angle: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return math.cos(angle) * top + math.sin(angle) * way, -math.sin(angle) * top + math.cos(
+            angle
+        ) * way
+
+    first = middle - drag.distance_m / radius / 2
+    poses = []
+    for i in range(count):
+        up, along = at(first + (i + 0.5) * step)
+        poses.append((radius * up, up, along))
+    sag = axis * (1.0 / math.cos(step / 2) - 1.0)
+    return radius * at(first)[0], poses, 2.0 * axis * math.sin(step / 2), sag
 
 
 def carve_groove(gl: GLContext, setup: ScratchSetup, carver: Carver | None = None) -> int:
@@ -227,14 +319,13 @@ def carve_groove(gl: GLContext, setup: ScratchSetup, carver: Carver | None = Non
     not wear) carves nothing."""
     if setup.groove.depth <= 0:
         return 0
-    press_in = -setup.normal
     presses = []
     for body in setup.segments:
         point = body.centre() + body.model[:3, :3] @ support(
             swept(setup.tool_shape, setup.segment_length), np.array([0.0, -1.0, 0.0])
         )
-        contact = ContactFrame(point, press_in)
-        presses.append(Press(setup.target, body, contact, setup.groove.depth, 0.0))
+        contact = ContactFrame(point, -body.model[:3, 1])  # square-on: its local -y
+        presses.append(Press(setup.target, body, contact, setup.press_depth, 0.0))
     own = carver or Carver(gl)
     try:
         jobs = own.carve_many(presses)
@@ -251,7 +342,7 @@ def measure(height: NDArray[np.float32], setup: ScratchSetup) -> dict:
     texel's area) and, over the path's straight part (its ends' prints left out), its depth
     along the path and its cross-section against the tool's circle (or flat) at depth d."""
     tu, tv = setup.target.maps.texel_metres
-    measured = 0.0 - float(height.astype(np.float64).sum() * tu * tv)  # 0, not -0, undented
+    measured = 0.0 - float((height.astype(np.float64) * texel_areas(height.shape, setup)).sum())
     groove, drag = setup.groove, setup.drag
     predicted = groove.predicted_volume(drag.distance_m)
     result: dict = {
@@ -286,6 +377,15 @@ def measure(height: NDArray[np.float32], setup: ScratchSetup) -> dict:
         result["depth_along_path_m"] = [float(deepest.min()), float(deepest.max())]
     result["grooved_off_path_texels"] = int(((height < GROOVED) & (np.abs(off) > reach)).sum())
     return result
+
+
+def texel_areas(shape: tuple[int, ...], setup: ScratchSetup) -> NDArray[np.float64] | float:
+    """The surface area each texel of the target's map covers, m^2: a sphere's from its atlas's
+    closed form (its texels differ in size, gutters 0), a plate's or cube's one texel's."""
+    if isinstance(setup.target_shape, Sphere):
+        return sphere_texel_areas(setup.target_shape.radius, shape[0], shape[1])
+    tu, tv = setup.target.maps.texel_metres
+    return tu * tv
 
 
 def _end_reach(setup: ScratchSetup) -> float:

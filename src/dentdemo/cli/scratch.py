@@ -61,10 +61,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--target",
-        choices=("plate", "box"),
+        choices=("plate", "box", "sphere"),
         default="plate",
-        help="target shape: a plate, or a cube, sized to hold the path (the groove's cross-section "
-        "is measured on a plate)",
+        help="target shape: a plate, or a cube, sized to hold the path, or a sphere dragged along "
+        "a great circle through its top (the groove's cross-section is measured on a plate)",
+    )
+    p.add_argument(
+        "--target-radius",
+        type=float_in(0.0, 100.0, lo_open=True),
+        default=None,
+        metavar="M",
+        help="a sphere target's radius, m (default: the distance, an arc of one radian)",
     )
     p.add_argument(
         "--target-material", default="aluminium", metavar="NAME", help="the target's preset"
@@ -108,8 +115,12 @@ def run(args: argparse.Namespace) -> int:
     tool = shape_from_args(args.tool, args.tool_size, "tool")
     material = load_materials(args.materials).get(args.target_material, "--target-material")
     drag = Drag(args.load, args.distance, args.speed, 0.0 if args.roll else args.slip)
-    groove = groove_for(tool, material, drag)
-    target = target_for(args.target, drag, groove, tool)
+    if args.target_radius is not None and args.target != "sphere":
+        raise DentdemoError(f"--target-radius: sizes a sphere target, not --target {args.target}")
+    target = target_for(
+        args.target, drag, groove_for(tool, material, drag), tool, args.target_radius
+    )
+    groove = groove_for(tool, material, drag, target)
     map_size = args.map_size or auto_map_size(target, groove)
     texel = max(shape_mesh(target, Tessellation.press(2)).uv_scale()) / map_size
     if groove.depth >= material.max_dent_depth:

@@ -171,3 +171,24 @@ def cylinder(radius: float, length: float, around: int = 64, rings: int = 8) -> 
     # The capsule around the cylinder holds it.
     mesh.bound = Bound(segment=np.array([[0.0, 0.0, -half], [0.0, 0.0, half]]), radius=radius)
     return mesh
+
+
+def sphere_texel_areas(radius: float, rows: int, cols: int) -> NDArray[np.float64]:
+    """The area on a built-in sphere of `radius` that each texel of a rows x cols map of its atlas
+    covers, m^2 (row 0 at v = 0), 0 outside the six charts: the equal-angle warp's area element
+    R^2 (pi/4)^2 (1 + X^2)(1 + Y^2) / (1 + X^2 + Y^2)^(3/2) per unit of s and t (X = tan(s pi/4),
+    Y = tan(t pi/4), s and t in [-1, 1] across a chart) at the texel's centre, times its extent
+    in s and t."""
+    u = (np.arange(cols) + 0.5) / cols
+    v = (np.arange(rows) + 0.5) / rows
+    area = np.zeros((rows, cols))
+    for face in range(len(CUBE_FACES)):
+        u0, v0, du, dv = _cell(face)
+        s = (u - u0) / du * 2.0 - 1.0
+        t = (v - v0) / dv * 2.0 - 1.0
+        x2 = np.tan(s * math.pi / 4)[None, :] ** 2
+        y2 = np.tan(t * math.pi / 4)[:, None] ** 2
+        element = radius**2 * (math.pi / 4) ** 2 * (1 + x2) * (1 + y2) / (1 + x2 + y2) ** 1.5
+        inside = (np.abs(t) <= 1.0)[:, None] & (np.abs(s) <= 1.0)[None, :]
+        area += np.where(inside, element * (2.0 / (du * cols)) * (2.0 / (dv * rows)), 0.0)
+    return area

@@ -122,3 +122,52 @@ def _bisect(area_at: Callable[[float], float], area: float, deepest: float) -> f
         else:
             hi = mid
     return 0.5 * (lo + hi)
+
+
+def lens_area(target_radius: float, radius: float, depth: float) -> float:
+    """Cross-section of the groove a sphere of `radius` dragged along a great circle of a ball of
+    `target_radius` cuts `depth` deep, m^2: the lens where the tool's circle (its centre
+    c = R + r - d from the ball's) overlaps the ball's circle, in the plane through the ball's
+    centre across the path. It is two circular segments on either side of their common chord,
+    the tool's d (2R - d) / (2c) high and the ball's d (2r - d) / (2c), each in a form that
+    keeps its digits when d is a millionth of R (acos near 1 would lose them)."""
+    big, r = target_radius, radius
+    d = min(max(depth, 0.0), 2.0 * min(big, r))
+    if d <= 0.0:
+        return 0.0
+    c = big + r - d
+    return _segment(r, d * (2.0 * big - d) / (2.0 * c)) + _segment(
+        big, d * (2.0 * r - d) / (2.0 * c)
+    )
+
+
+def _segment(radius: float, height: float) -> float:
+    """A circular segment `height` high cut from a circle of `radius`, m^2: R^2 theta - (R - h)
+    sqrt(h (2R - h)) with its half-angle theta = 2 asin(sqrt(h / 2R))."""
+    h = min(max(height, 0.0), 2.0 * radius)
+    theta = 2.0 * math.asin(math.sqrt(h / (2.0 * radius)))
+    return radius * radius * theta - (radius - h) * math.sqrt(h * (2.0 * radius - h))
+
+
+def ball_lens_volume(target_radius: float, radius: float, depth: float) -> float:
+    """Volume of the print a sphere of `radius` pressed `depth` into a ball of `target_radius`
+    leaves, m^3: the two balls' overlap, pi (R + r - c)^2 (c^2 + 2 c r - 3 r^2 + 2 c R + 6 r R
+    - 3 R^2) / (12 c) with c = R + r - d between their centres."""
+    big, r = target_radius, radius
+    d = min(max(depth, 0.0), 2.0 * min(big, r))
+    c = big + r - d
+    return (
+        math.pi
+        * d
+        * d
+        * (c * c + 2.0 * c * r - 3.0 * r * r + 2.0 * c * big + 6.0 * r * big - 3.0 * big * big)
+        / (12.0 * c)
+    )
+
+
+def lens_groove_depth(target_radius: float, radius: float, area: float) -> float:
+    """The depth whose `lens_area` is `area`, m, by bisection on [0, min(R, r)] (the lens grows
+    monotonically with d); a groove past that is refused by the caller's thickness bound."""
+    if area <= 0.0:
+        return 0.0
+    return _bisect(lambda d: lens_area(target_radius, radius, d), area, min(target_radius, radius))
