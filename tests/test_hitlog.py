@@ -451,3 +451,17 @@ def test_a_scraped_scene_replays_its_grooves_bit_for_bit(gl):
         fresh.close()
     finally:
         copy.close()
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 183, 1 << 20])
+def test_a_stream_fed_in_any_pieces_gives_the_whole_files_records(chunk):
+    """The streaming decoder, fed a log cut anywhere (mid-header, mid-record), gives the records
+    and places `parse` gives the whole file, and sees its end record."""
+    data = hitlog.to_bytes(_records())
+    records, places = hitlog.parse_placed(data, "s")
+    decoder = hitlog.Decoder("s")
+    got = []
+    for start in range(0, len(data), chunk):
+        got += decoder.feed(data[start : start + chunk])
+    assert decoder.ended
+    assert [r for _, r in got] == records and [at for at, _ in got] == places

@@ -20,6 +20,7 @@ Pure data: nothing here reads or writes files (app/hitlog.py does)."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import struct
@@ -392,7 +393,13 @@ class _Reader:
         return self.data[self.offset - n : self.offset]
 
     def floats(self, n: int) -> tuple[float, ...]:
-        return self.take(struct.Struct(f"<{n}d"))
+        return self.take(_doubles(n))
+
+
+@functools.cache
+def _doubles(n: int) -> struct.Struct:
+    """`n` little-endian float64s (a handful of counts occur: made once each)."""
+    return struct.Struct(f"<{n}d")
 
 
 def _read_hit(r: _Reader, frame: int, batch: int) -> Hit:
@@ -476,21 +483,25 @@ class Decoder:
         out: list[tuple[str, Record]] = []
         if not self._header and not self._read_header():
             return out
-        while self._buffer and not self.ended:
-            r = _Reader(self._buffer, 0)
-            at = f"{self.source}: record at offset {self._consumed}"
+        # One pass over the buffer; what is left (a record the stream cut) is kept once, at the
+        # end: trimming after each record copied the rest of a whole file each time.
+        r = _Reader(self._buffer, 0)
+        while r.offset < len(self._buffer) and not self.ended:
+            start = r.offset
+            at = f"{self.source}: record at offset {self._consumed + start}"
             try:
                 record = self._record(r, at)
             except struct.error:
-                return out  # a record cut by the stream: wait for the rest
+                r.offset = start  # a record cut by the stream: wait for the rest
+                break
             except (ValueError, KeyError, TypeError) as exc:
                 if isinstance(exc, HitLogError):
                     raise
                 raise HitLogError(f"{at}: bad body record ({exc})") from None
-            self._buffer = self._buffer[r.offset :]
-            self._consumed += r.offset
             if record is not None:
                 out.append((at, record))
+        self._buffer = self._buffer[r.offset :]
+        self._consumed += r.offset
         if self.ended and self._buffer:
             raise HitLogError(f"{self.source}: bytes after the end record")
         return out
