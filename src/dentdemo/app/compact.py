@@ -75,7 +75,7 @@ class CompactSaves:
         """state.json's keys and the files of a compact save, besides a full save's others."""
         log = hitlog.to_bytes(self.recorder.records)
         keys: dict[str, Any] = {
-            "hit_log": {"file": LOG_FILE, "sha256": _sha256(log), "hits": self.recorder.hits},
+            "hit_log": {"file": LOG_FILE, "sha256": sha256(log), "hits": self.recorder.hits},
             "checkpoint": None,
         }
         files = {LOG_FILE: log}
@@ -83,11 +83,11 @@ class CompactSaves:
             text = (json.dumps(self.checkpoint.payload, indent=2) + "\n").encode()
             keys["checkpoint"] = {
                 "file": CHECKPOINT_FILE,
-                "sha256": _sha256(text),
+                "sha256": sha256(text),
                 "normals": {
                     body_id: {
                         "file": normal_file(body_id),
-                        "sha256": _sha256(self.checkpoint.files[normal_file(body_id)]),
+                        "sha256": sha256(self.checkpoint.files[normal_file(body_id)]),
                     }
                     for body_id in sorted(self.checkpoint.normals)
                 },
@@ -106,5 +106,6 @@ def normal_file(body_id: str) -> str:
     return f"{body_id}.normal.npy"
 
 
-def _sha256(data: bytes) -> str:
+def sha256(data: bytes) -> str:
+    """The hex SHA-256 a saved state records of each of its files."""
     return hashlib.sha256(data).hexdigest()

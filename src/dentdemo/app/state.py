@@ -13,7 +13,6 @@ reads and checks everything (`read_state`) before it changes anything (`apply_st
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import io
 import json
 import math
@@ -36,6 +35,7 @@ from dentdemo.app.compact import (
     CompactSaves,
     normal_file,
 )
+from dentdemo.app.compact import sha256 as _sha256
 from dentdemo.app.hitlog import MAX_LOG_BYTES, replay
 from dentdemo.app.reshape import DentProxy, proxy_for
 from dentdemo.app.simulation import (
@@ -46,7 +46,7 @@ from dentdemo.app.simulation import (
 )
 from dentdemo.app.stats import SimStats
 from dentdemo.app.wear import SavedWear, read_wear
-from dentdemo.carve.surface import rebuild_all_normals
+from dentdemo.carve.surface import MAX_MAP_SIZE, rebuild_all_normals
 from dentdemo.errors import ArgumentError, DentdemoError
 from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model import hitlog, shapes
@@ -80,10 +80,6 @@ ENTRIES_MAX = 10**6
 STATE_JSON_MAX = 256 << 20
 #: Room for a .npy file's header beside its data, bytes (np.save writes 128).
 NPY_HEADER_MAX = 4096
-
-
-def _sha256(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
 
 
 def _scene_hash(sim: Simulation) -> str:
@@ -794,7 +790,6 @@ def read_state(sim: Simulation, directory: Path) -> SavedState:
 
 def _compact_files(directory: Path) -> Callable[[str], bytes]:
     """A compact state's other files, each a regular file read up to its bound."""
-    from dentdemo.carve.surface import MAX_MAP_SIZE
 
     def read(name: str) -> bytes:
         if name == LOG_FILE:
