@@ -146,6 +146,53 @@ def test_a_dragged_box_cuts_a_flat_groove(gl):
     assert -height[inside] == pytest.approx(depth, rel=1e-3)
 
 
+def _circle_depth(r, area):
+    """The depth whose circle groove (the midpoint rule, `_circle_groove_area`) is `area`."""
+    lo, hi = 0.0, r
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if _circle_groove_area(r, mid, 20001) < area else (lo, mid)
+    return (lo + hi) / 2
+
+
+@pytest.mark.parametrize(
+    "kind,heading",
+    [("capsule", 30.0), ("cylinder", 0.0), ("cylinder", -50.0), ("plate", 30.0)],
+)
+def test_a_dragged_capsule_cylinder_or_plate_cuts_its_profile(gl, kind, heading):
+    """Each tool lying along a 40 mm path on shipped steel at 5 kN (a plate face down): the
+    groove holds K F s / H (the preset's, by hand) plus the tool's print at the ends within 5 %
+    (a capsule: its circle's segment over its length and a sphere's cap; a cylinder: the
+    segment over its length; a plate: side^2 d), and across the path's straight part its
+    profile is the tool's: the circle of its radius at the depth whose integrated segment
+    times the path is Archard's volume, or flat, side wide, within 3 % of the depth."""
+    from dentdemo.model.shapes import Capsule, Cylinder, Plate
+
+    r, length, side, load, distance = 0.01, 0.012, 0.006, 5000.0, 0.04
+    tool = {"capsule": Capsule(r, length), "cylinder": Cylinder(r, length), "plate": Plate(side)}
+    steel, plate, _, height = _scratch(gl, tool[kind], "steel", load, distance, 1024, heading)
+    volume = 7e-3 * load * distance / 1.18e9
+    if kind == "plate":
+        depth = volume / (side * distance)
+        ends = side * side * depth
+    else:
+        depth = _circle_depth(r, volume / distance)
+        ends = volume / distance * length
+        ends += math.pi * depth**2 * (3 * r - depth) / 3 if kind == "capsule" else 0.0
+    texel = plate.side / 1024
+    assert -height.sum() * texel * texel == pytest.approx(volume + ends, rel=0.05)
+    along, off = _texel_coordinates(height, plate.side, heading)
+    reach = side / 2 if kind == "plate" else math.sqrt(2 * r * depth)
+    straight = (np.abs(along) < distance / 2) & (np.abs(off) < reach + 2 * texel)
+    if kind == "plate":
+        expected = np.where(np.abs(off) < side / 2, depth, 0.0)
+        straight &= np.abs(np.abs(off) - side / 2) > texel  # the walls' texels either way
+    else:
+        expected = np.maximum(depth - (r - np.sqrt(np.maximum(r * r - off**2, 0.0))), 0.0)
+    error = np.abs(-height[straight] - expected[straight])
+    assert error.max() < 0.03 * depth, error.max() / depth
+
+
 @pytest.mark.slow
 def test_the_scratch_command_rolls_without_wear_and_drags_with(tmp_path):
     """`dentdemo scratch`: rolling without slip wears nothing (volume 0, no texel lowered);
@@ -195,6 +242,53 @@ def test_the_scratch_command_scratches_a_sphere_along_a_great_circle(tmp_path):
     assert summary["segments"] > 1
 
 
+def _strip_area_by_integration(big, width, depth, n=200_001):
+    """The ball's circle (radius `big`) above the chord `depth` below its top, over |x| <=
+    width / 2, by the midpoint rule across x (independent of `wear.strip_area`)."""
+    half = min(width / 2, big)
+    x = ((np.arange(n) + 0.5) / n * 2 - 1) * half
+    return float(np.maximum(np.sqrt(big * big - x * x) - (big - depth), 0.0).sum() * 2 * half / n)
+
+
+def _print_by_integration(big, width, length, depth, n=1500):
+    """The ball's cap above the plane `depth` below its top, under a width x length face centred
+    on it, by the midpoint rule over the face."""
+    x = ((np.arange(n) + 0.5) / n * 2 - 1) * width / 2
+    z = ((np.arange(n) + 0.5) / n * 2 - 1) * length / 2
+    cut = np.sqrt(np.maximum(big * big - x[None, :] ** 2 - z[:, None] ** 2, 0.0)) - (big - depth)
+    return float(np.maximum(cut, 0.0).sum() * width * length / n / n)
+
+
+@pytest.mark.parametrize("width", [0.004, 0.0015])
+@pytest.mark.slow
+def test_the_scratch_command_drags_a_box_along_a_spheres_great_circle(tmp_path, width):
+    """A box face down (4 mm, then 1.5 mm across, 2 mm along) dragged 20 mm along a great circle
+    of a 50 mm sphere, 30 degrees off +x, on shipped steel at 5 kN: the groove's cross-section
+    is the ball's circle above the face's chord, clipped to the face's width (the 4 mm face is
+    wider than the chord, the 1.5 mm one narrower); its depth the test's own bisection of that
+    integrated area against Archard's V / s; the volume, -height times each texel's area, is V
+    plus the face's print on the ball (integrated) within 5 %."""
+    base = ["scratch", "--tool", "box", "--tool-size", str(width), "0.002", "0.002"]
+    base += ["--load", "5000", "--distance", "0.02", "--target-material", "steel"]
+    base += ["--target", "sphere", "--target-radius", "0.05", "--heading", "30"]
+    result = dentdemo(*base, "--map-size", "1024", "--out", tmp_path / "s")
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((tmp_path / "s" / "summary.json").read_text())
+    big, volume = 0.05, 7e-3 * 5000 * 0.02 / 1.18e9
+    lo, hi = 0.0, 1e-3
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        small = _strip_area_by_integration(big, width, mid, 20001) * 0.02 < volume
+        lo, hi = (mid, hi) if small else (lo, mid)
+    depth = (lo + hi) / 2
+    chord = math.sqrt(2 * big * depth - depth**2)
+    assert (width / 2 > chord) == (width == 0.004)  # the two cases: wider, narrower
+    assert summary["depth_m"] == pytest.approx(depth, rel=1e-3)
+    expected = volume + _print_by_integration(big, width, 0.002, depth)
+    assert summary["measured_volume_m3"] == pytest.approx(expected, rel=0.05)
+    assert summary["segments"] > 1
+
+
 @pytest.mark.parametrize(
     "args,fragment",
     [
@@ -205,7 +299,7 @@ def test_the_scratch_command_scratches_a_sphere_along_a_great_circle(tmp_path):
         (["--load", "1", "--distance", "0.1", "--tool-size", "0.01", "0.02"], "--tool-size"),
         (["--load", "1e9", "--distance", "50", "--target-material", "lead"], "max_dent_depth"),
         (["--load", "1", "--distance", "0.1", "--target-radius", "0.1"], "--target-radius"),
-        (["--load", "1", "--distance", "0.1", "--tool", "box", "--target", "sphere"], "--tool"),
+        (["--load", "1", "--distance", "0.1", "--tool", "capsule", "--target", "sphere"], "--tool"),
     ],
 )
 @pytest.mark.slow

@@ -268,21 +268,129 @@ def test_a_saved_slide_is_checked(gl, tmp_path, change, key):
         sim.close()
 
 
-def _crate_sandbox(gl, tmp_path, scale: float, yaw_deg: float):
+#: The 1 m plate's texel with 1024 texels a metre, m.
+TEXEL = 1.0 / 1024
+
+
+def _tool_sandbox(gl, tmp_path, scale: float, body: str):
+    """The worn 1 m plate (1 mm texels) and one body, `body`'s [[body]] table (id "crate")."""
     from dentdemo.app.simulation import Simulation
 
     materials = tmp_path / "m.toml"
     materials.write_text(WEARING)
     scene_path = tmp_path / "s.toml"
+    scene_path.write_text(
+        "\n".join([PHYSICS.format(scale=scale), plate("worn", side=1.0, texels=1024), body])
+    )
+    lib = load_materials([materials])
+    return Simulation(gl, load_scene(scene_path, lib), lib)
+
+
+def _crate_sandbox(gl, tmp_path, scale: float, yaw_deg: float):
     crate = (
         '[[body]]\nid = "crate"\nshape = "box"\nsize = [0.1, 0.06, 0.06]\nmaterial = "worn"\n'
         f"position = [-0.3, {0.02 + 0.03}, 0.0]\nrotation_deg = [0, {yaw_deg}, 0]\n"
     )
-    scene_path.write_text(
-        "\n".join([PHYSICS.format(scale=scale), plate("worn", side=1.0, texels=1024), crate])
+    return _tool_sandbox(gl, tmp_path, scale, crate)
+
+
+def _slide(gl, tmp_path, scale, body, v0=2.5):
+    """`body` (id "crate", resting on the plate) pushed along +x at v0 without spin until
+    friction stops it: the plate's heights lost, the mass, the slide v0^2 / (2 mu g) and
+    Archard's volume over it times the scale (checked against the tracker's), and where the
+    tool's centre started."""
+    sim = _tool_sandbox(gl, tmp_path, scale, body)
+    try:
+        for _ in range(10):
+            sim.step()
+        before = _plate_heights(sim)
+        start_x = sim.world.pose("crate")[0][0]
+        sim.world.set_velocity("crate", (v0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        for _ in range(70):
+            sim.step()
+        sim.apply_queued()
+        carved = -(_plate_heights(sim) - before)
+        mass = sim.world.bodies["crate"].mass
+        slide = v0**2 / (2 * MU * G)
+        volume = scale * 1e-3 * mass * G * slide / 1e9
+        assert sim.wear is not None
+        assert sim.wear.worn["plate"] == pytest.approx(volume, rel=0.03)
+        assert sim.world.pose("crate")[0][0] - start_x == pytest.approx(slide, rel=0.03)
+    finally:
+        sim.close()
+    return carved, volume, slide, start_x
+
+
+def _middle(carved, start_x, slide, margin):
+    """The carved heights of the columns between start + margin and start + slide - margin (the
+    plate's u along +x, x = (u - 1/2) m), and that stretch's length, m."""
+    x = (np.arange(carved.shape[1]) + 0.5) / carved.shape[1] - 0.5
+    columns = (x > start_x + margin) & (x < start_x + slide - margin)
+    return carved[:, columns], columns.sum() / carved.shape[1]
+
+
+def test_a_capsule_sliding_on_its_side_wears_its_circles_groove(gl, tmp_path):
+    """A capsule (r 3 cm, 10 cm between its caps) lying along +x, pushed along its axis: it slips
+    v0^2 / (2 mu g) under m g; the groove's cross-section is its circle's segment, so over the
+    path's middle the volume per metre is Archard's V / s (within 5 %) and the groove's depth
+    the circle's d with A(d) = V / s (the test's own bisection of the integrated circle), its
+    profile across the circle's within 8 % of d."""
+    r = 0.03
+    body = (
+        f'[[body]]\nid = "crate"\nshape = "capsule"\nradius = {r}\nlength = 0.1\n'
+        f'material = "worn"\nposition = [-0.35, {0.02 + r}, 0.0]\nrotation_deg = [0, 90, 0]\n'
     )
-    lib = load_materials([materials])
-    return Simulation(gl, load_scene(scene_path, lib), lib)
+    carved, volume, slide, start_x = _slide(gl, tmp_path, 1e6, body)
+    middle, span = _middle(carved, start_x, slide, 0.08)
+    assert middle.sum() * TEXEL**2 / span == pytest.approx(volume / slide, rel=0.05)
+    depth = _circle_depth(r, volume / slide)
+    deepest = middle.max(axis=0)
+    assert np.median(deepest) == pytest.approx(depth, rel=0.05)
+    z = 0.5 - (np.arange(carved.shape[0]) + 0.5) / carved.shape[0]  # v: z = (1/2 - v) m
+    expected = np.maximum(depth - (r - np.sqrt(np.maximum(r * r - z * z, 0.0))), 0.0)
+    profile = np.median(middle, axis=1)
+    assert np.abs(profile - expected).max() < 0.08 * depth
+
+
+def _circle_depth(r, area):
+    """The depth whose circle segment (the midpoint rule across the circle) is `area`."""
+    lo, hi = 0.0, r
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        x = (np.arange(20001) + 0.5) / 20001 * 2 * r - r
+        cut = np.maximum(mid - (r - np.sqrt(r * r - x * x)), 0.0).sum() * 2 * r / 20001
+        lo, hi = (mid, hi) if cut < area else (lo, mid)
+    return (lo + hi) / 2
+
+
+@pytest.mark.parametrize(
+    "shape,width",
+    [
+        # Upright on a flat end (axis along y): the groove as wide as its diameter.
+        ('shape = "cylinder"\nradius = 0.03\nlength = 0.06\nrotation_deg = [90, 0, 0]\n', 0.06),
+        # A loaded mesh, the shipped 0.2 m crate scaled to 6 cm: its bottom face's patch.
+        ('shape = "mesh"\nmesh = "{crate}"\nscale = 0.3\n', 0.06),
+    ],
+)
+def test_a_flat_faced_tool_wears_a_groove_as_wide_as_its_face(gl, tmp_path, shape, width):
+    """A cylinder standing on its end, and a loaded mesh crate on its bottom face, pushed along
+    +x: a flat groove as wide as the face across the path, one depth V / (w s) over the path's
+    middle (median within 5 %), its volume per metre V / s within 5 %."""
+    from dentdemo.resources import assets_dir
+
+    crate = (assets_dir() / "meshes" / "crate.obj").as_posix()
+    body = (
+        '[[body]]\nid = "crate"\n'
+        + shape.format(crate=crate)
+        + 'material = "worn"\nposition = [-0.35, 0.0505, 0.0]\n'
+    )
+    carved, volume, slide, start_x = _slide(gl, tmp_path, 1e6, body)
+    middle, span = _middle(carved, start_x, slide, 0.05)
+    depth = volume / (width * slide)
+    assert np.median(middle[middle > depth / 2]) == pytest.approx(depth, rel=0.05)
+    assert middle.sum() * TEXEL**2 / span == pytest.approx(volume / slide, rel=0.05)
+    across = (middle > depth / 2).sum(axis=0) * TEXEL  # the groove's width, column by column
+    assert np.median(across) == pytest.approx(width, abs=2e-3)
 
 
 @pytest.mark.parametrize("yaw", [0.0, 30.0])

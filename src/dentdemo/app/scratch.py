@@ -17,12 +17,21 @@ grow past a micron groove's width. Collinear capsules (and boxes) that share the
 union to the one long solid, and the carve keeps the deeper height (MIN) where they overlap, so
 the segments leave the same groove as one press of the whole path would.
 
+Tools lie along the path (local z): a sphere, a capsule or a cylinder cuts its circle's segment
+A(d) (swept, a longer capsule, carved as its smooth solid, or a longer cylinder, its facets fine
+enough to sag FACET_SAG of the depth); a box or a plate (face down) its flat width, A(d) = w d
+(swept, a longer box). Each adds its print at the ends: a capsule's A(d) l plus a sphere's cap, a
+cylinder's A(d) l, a box's x z d, a plate's side^2 d.
+
 On a sphere the path is an arc of a great circle, `distance` long on the surface, and each segment
-a chord of it (a capsule square-on to the surface at the chord's middle): the chord sags below the
-arc by L^2 / (8 (R + r)) at its ends, so the segments are kept short enough that the sag is at
-most SAG_FRACTION of the groove's depth, and each is pressed a third of its sag deeper (the depth
-along a chord, d + sag/3 - x^2 / (2 (R + r)), then averages d). The groove's cross-section is the
-lens the tool's circle cuts from the ball's (`wear.lens_area`), its ends the two balls' overlap."""
+a chord of it (a capsule, or a box face down, square-on to the surface at the chord's middle): the
+chord sags below the arc by L^2 / (8 (R + r)) at its ends (a box: L^2 / (8 R)), so the segments
+are kept short enough that the sag is at most SAG_FRACTION of the groove's depth, and each is
+pressed a third of its sag deeper (the depth along a chord, d + sag/3 - x^2 / (2 (R + r)), then
+averages d). The groove's cross-section is the
+lens the tool's circle cuts from the ball's (`wear.lens_area`), its ends the two balls' overlap;
+a box's, the ball's circular segment under the face's chord, clipped to the face's width
+(`wear.strip_area`, closed form), its ends the ball's cap under the face."""
 
 from __future__ import annotations
 
@@ -45,7 +54,7 @@ from dentdemo.mesh.primitives import sphere_texel_areas
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.model import wear
 from dentdemo.model.materials import Material
-from dentdemo.model.shapes import Box, Capsule, Plate, Shape, Sphere, as_dict, support
+from dentdemo.model.shapes import Box, Capsule, Cylinder, Plate, Shape, Sphere, as_dict, support
 
 #: Texels across the groove's half-width the automatic map size aims at: sampled at texel
 #: centres, a groove of n texels a half-width integrates to within -1/(4 n^2) .. +1/(8 n^2) of
@@ -116,18 +125,58 @@ def groove_for(
                 _lens_half_width(big, r, depth),
                 wear.ball_lens_volume(big, r, depth),
             )
+        case Box(size=(x, _, z)), Sphere(radius=big):
+            depth = wear.strip_groove_depth(big, x, area)
+            half = min(x / 2, wear.segment_half_width(big, depth))
+            return Groove(volume, area, depth, half, flat_print_on_ball(big, x, z, depth))
         case _, Sphere():
-            raise DentdemoError("--tool: a sphere target is scratched with a sphere tool")
+            raise DentdemoError("--tool: a sphere target is scratched with a sphere or a box tool")
     match tool:
-        case Sphere(radius=r):
+        case Sphere(radius=r) | Capsule(radius=r) | Cylinder(radius=r):
             depth = wear.sphere_groove_depth(r, area)
-            return Groove(
-                volume, area, depth, wear.segment_half_width(r, depth), wear.cap_volume(r, depth)
-            )
+            ends = area * _extent(tool)
+            if not isinstance(tool, Cylinder):
+                ends += wear.cap_volume(r, depth)
+            return Groove(volume, area, depth, wear.segment_half_width(r, depth), ends)
         case Box(size=(x, _, z)):
             depth = wear.box_groove_depth(x, area)
             return Groove(volume, area, depth, x / 2, x * z * depth)
-    raise DentdemoError(f"--tool: a scratch takes a sphere or a box, got {type(tool).__name__}")
+        case Plate(side=side):
+            depth = wear.box_groove_depth(side, area)
+            return Groove(volume, area, depth, side / 2, side * side * depth)
+    raise DentdemoError(f"--tool: a scratch takes no {type(tool).__name__} tool")
+
+
+#: Samples a side of the midpoint rule over a flat face's print on a ball (where the face is
+#: narrower than the print).
+PRINT_SAMPLES = 400
+
+
+def flat_print_on_ball(radius: float, width: float, length: float, depth: float) -> float:
+    """Volume a flat face `width` x `length` pressed `depth` into a ball of `radius` cuts, m^3:
+    the ball's cap, pi d^2 (3R - d) / 3, where the face covers the cap's disc (radius
+    sqrt(2 R d - d^2)); else the cap over the face's rectangle by the midpoint rule."""
+    a = wear.segment_half_width(radius, depth)
+    if width / 2 >= a and length / 2 >= a:
+        return wear.cap_volume(radius, depth)
+    hx, hz = min(width / 2, a), min(length / 2, a)
+    x = ((np.arange(PRINT_SAMPLES) + 0.5) / PRINT_SAMPLES * 2 - 1) * hx
+    z = ((np.arange(PRINT_SAMPLES) + 0.5) / PRINT_SAMPLES * 2 - 1) * hz
+    rho2 = x[None, :] ** 2 + z[:, None] ** 2
+    cut = np.sqrt(np.maximum(radius * radius - rho2, 0.0)) - (radius - depth)
+    return float(np.maximum(cut, 0.0).sum() * (2 * hx / PRINT_SAMPLES) * (2 * hz / PRINT_SAMPLES))
+
+
+def _extent(tool: Shape) -> float:
+    """How long the tool lies along the path beyond a point, m (its print's straight part)."""
+    match tool:
+        case Capsule(length=length) | Cylinder(length=length):
+            return length
+        case Box(size=(_, _, z)):
+            return z
+        case Plate(side=side):
+            return side
+    return 0.0
 
 
 def _lens_half_width(big: float, r: float, depth: float) -> float:
@@ -141,13 +190,20 @@ def _lens_half_width(big: float, r: float, depth: float) -> float:
 
 
 def swept(tool: Shape, length: float) -> Shape:
-    """`tool` swept `length` metres along its local z: a sphere a capsule, a box a longer box."""
+    """`tool` swept `length` metres along its local z: a sphere a capsule, a capsule or a
+    cylinder a longer one, a box a longer box, a plate (face down) a box."""
     match tool:
         case Sphere(radius=r):
             return Capsule(r, length)
+        case Capsule(radius=r, length=l):
+            return Capsule(r, l + length)
+        case Cylinder(radius=r, length=l):
+            return Cylinder(r, l + length)
         case Box(size=(x, y, z)):
             return Box((x, y, z + length))
-    raise DentdemoError(f"--tool: a scratch takes a sphere or a box, got {type(tool).__name__}")
+        case Plate(side=side, thickness=t):
+            return Box((side, t, side + length))
+    raise DentdemoError(f"--tool: a scratch takes no {type(tool).__name__} tool")
 
 
 @dataclass
@@ -195,7 +251,7 @@ def target_for(
     distance, so that the path is an arc of one radian)."""
     if kind == "sphere":
         return Sphere(radius if radius is not None else drag.distance_m)
-    extent = tool.size[2] if isinstance(tool, Box) else 0.0
+    extent = _extent(tool)
     side = drag.distance_m + extent + 6.0 * max(groove.half_width, 1e-4)
     return Box((side, side, side)) if kind == "box" else Plate(side)
 
@@ -230,7 +286,7 @@ def make_scratch(
     direction = np.array([math.cos(heading), 0.0, math.sin(heading)])
     start = middle - direction * drag.distance_m / 2
     texel = min(maps.texel_metres)
-    extent = 2.0 * groove.half_width + (tool.size[2] if isinstance(tool, Box) else 0.0)
+    extent = 2.0 * groove.half_width + _extent(tool)
     longest = SEGMENT_PIXELS * max_resolution * texel - extent
     if longest <= 0:
         raise DentdemoError(
@@ -238,7 +294,7 @@ def make_scratch(
             f"{texel:g} m a texel; use a coarser map"
         )
     poses: list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
-    if isinstance(target_shape, Sphere) and isinstance(tool, Sphere):
+    if isinstance(target_shape, Sphere):  # a sphere or a box tool (groove_for)
         radius = target_shape.radius
         start, poses, length, sag = _arc(radius, tool, groove, drag, longest, heading, arc_middle)
     else:
@@ -246,7 +302,7 @@ def make_scratch(
         length, sag = drag.distance_m / count, 0.0
         poses = [(start + direction * (i + 0.5) * length, normal, direction) for i in range(count)]
     solid = swept(tool, length)
-    tool_mesh = shape_mesh(solid, Tessellation.press(2))
+    tool_mesh = shape_mesh(solid, _tessellation(tool, groove.depth))
     tool_gpu = GpuMesh(gl, tool_mesh)
     # The tool's texels no coarser than the target's: the camera's pixels grow to one of them.
     su, sv = tool_mesh.uv_scale()
@@ -273,9 +329,27 @@ def make_scratch(
     )
 
 
+#: A cylinder tool's facets sag at most this part of the groove's depth (a built-in cylinder is
+#: carved as its facets; a capsule as its smooth solid), and its sides are cut in at most
+#: CYLINDER_AROUND segments.
+FACET_SAG = 0.01
+CYLINDER_AROUND = 4096
+
+
+def _tessellation(tool: Shape, depth: float) -> Tessellation:
+    """The swept tool's tessellation: the press's, and a cylinder cut finely enough that the
+    facet under the groove sags FACET_SAG of its depth at most, r (1 - cos(pi / n))."""
+    press = Tessellation.press(2)
+    if not isinstance(tool, Cylinder) or depth <= 0:
+        return press
+    angle = math.acos(max(1.0 - FACET_SAG * depth / tool.radius, -1.0))
+    around = min(max(press.around, 8 * math.ceil(math.pi / angle / 8)), CYLINDER_AROUND)
+    return Tessellation(press.sphere, around, press.rings)
+
+
 def _arc(
     radius: float,
-    tool: Sphere,
+    tool: Shape,
     groove: Groove,
     drag: Drag,
     longest: float,
@@ -292,7 +366,8 @@ def _arc(
     (how much farther from the centre its ends lie than its middle), m. Equal arcs, at most
     `longest` on the surface each (one camera) and short enough that the sag is at most
     SAG_FRACTION of the groove's depth."""
-    axis = radius + tool.radius  # the swept sphere's axis, touching at a chord's middle
+    # The swept sphere's axis, or the box's face, touching at a chord's middle.
+    axis = radius + (tool.radius if isinstance(tool, Sphere) else 0.0)
     tangent = math.sqrt(8.0 * axis * SAG_FRACTION * max(groove.depth, 1e-12)) * radius / axis
     count = max(1, math.ceil(drag.distance_m / min(longest, tangent)))
     step = drag.distance_m / radius / count  # radians
@@ -391,14 +466,17 @@ def texel_areas(shape: tuple[int, ...], setup: ScratchSetup) -> NDArray[np.float
 def _end_reach(setup: ScratchSetup) -> float:
     """How far past the path's ends the tool's print reaches along it, m."""
     tool = setup.tool_shape
-    return tool.size[2] / 2 if isinstance(tool, Box) else setup.groove.half_width
+    if isinstance(tool, Box | Plate | Cylinder):
+        return _extent(tool) / 2
+    return _extent(tool) / 2 + setup.groove.half_width
 
 
 def _profile(tool: Shape, depth: float, offset: NDArray[np.float64]) -> NDArray[np.float64]:
     """The groove's depth `offset` metres across from its axis (>= 0)."""
-    if not isinstance(tool, Sphere):
-        return np.where(np.abs(offset) < tool.size[0] / 2, depth, 0.0)  # type: ignore[union-attr]
-    r = tool.radius
+    if isinstance(tool, Box | Plate):
+        width = tool.size[0] if isinstance(tool, Box) else tool.side
+        return np.where(np.abs(offset) < width / 2, depth, 0.0)
+    r = tool.radius  # type: ignore[union-attr]
     reach = np.sqrt(np.maximum(r * r - offset * offset, 0.0))
     return np.maximum(depth - (r - reach), 0.0)
 

@@ -8,11 +8,17 @@ pair stops sliding. A segment shallower than VISIBLE_DEPTH is dropped with its v
 not show at a sandbox's texels. Pure rolling slips nothing (the physics reports no slide), so it
 wears nothing; a slide that stops ends its groove.
 
-Tools: a sphere (a ball skidding; swept, a built-in capsule, kept per size) and a box (a crate
-sliding; swept, the convex hull of its corners at both ends of the segment, mesh/hull.py, made
-per segment, its depth the one whose cross-section across the path, the box's corners projected
-along it, times the segment is the volume). A mesh, capsule or cylinder tool wears nothing yet.
-Worn bodies: any dentable body but the ground plane."""
+Tools, each the other body's local shape at the contact: a sphere (a ball skidding; swept, a
+built-in capsule, kept per size); a box (a crate sliding; swept, the convex hull of its corners
+at both ends of the segment, mesh/hull.py, made per segment, its depth the one whose
+cross-section across the path, the box's corners projected along it, times the segment is the
+volume); a capsule or a cylinder (its cap, side or rim: the support points of directions fanned
+across the path about the contact's, `_profile`) and a loaded mesh (its triangles near the
+contact, `_patch`): each swept as a prism, its cross-section across the path (at most
+RING_POINTS corners) run from the tool's print at the segment's start to its print at the end.
+A plate, static, is not a tool here (what slides over it is a ball or a crate whose contact moves
+over its own curved or flat face; `dentdemo scratch --tool plate` drags one). Worn bodies: any
+dentable body but the ground plane."""
 
 from __future__ import annotations
 
@@ -34,7 +40,7 @@ from dentdemo.mesh.hull import convex_ring, hull_mesh
 from dentdemo.mesh.mesh import Mesh
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
 from dentdemo.model import wear
-from dentdemo.model.shapes import Box, Capsule, Plane, Sphere
+from dentdemo.model.shapes import Box, Capsule, Cylinder, MeshFile, Plane, Shape, Sphere, support
 
 if TYPE_CHECKING:
     from dentdemo.app.simulation import Simulation
@@ -52,39 +58,59 @@ LENGTH_STEP = 5e-3
 #: The swept tool's map side at most, texels (only its pitch matters: the carve's pixels grow
 #: to one of its texels).
 TOOL_MAP_MAX = 1024
+#: Corners a curved tool's or a mesh patch's cross-section keeps: its prism's 16 points at both
+#: ends are what a hit log's groove record holds (a box's 8 corners twice). With the profile's
+#: corners spread over twice the groove's depth, the circle between two of them sags about 1/18
+#: of the depth.
+RING_POINTS = 8
+#: Directions fanned across the path to find a curved tool's profile, before RING_POINTS of the
+#: support points are kept.
+FAN = 33
+#: Half-angles of the fan tried in turn, radians: the first whose profile stands at least twice
+#: the groove's depth above the tool's lowest point is kept (a flat face: the widest).
+CONES = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 0.8, 1.5)
+#: How high a curved profile's kept corners stand, times the groove's depth: the cone is fitted
+#: to it (a lower profile's top chord would cut the groove; a higher one spends corners).
+RISE = 1.3
+#: A mesh tool's patch: its triangles within this distance of the contact, m (each triangle's
+#: bounding sphere about its centroid).
+PATCH_RADIUS = 0.02
 
 
 @dataclass
 class _Track:
     """The path of a tool over a worn body since its groove's last segment: the contact point at
     its start and now, and the contact's outward normal now, all in the worn body's local frame
-    (metres), and the volume worn meanwhile, m^3."""
+    (metres), the volume worn meanwhile, m^3, and whether it is the slide's first segment (a
+    prism's groove then holds the tool's print at the start too)."""
 
     start: NDArray[np.float64]
     end: NDArray[np.float64]
     point: NDArray[np.float64]
     normal: NDArray[np.float64]
     volume: float = 0.0
+    fresh: bool = True
 
 
 @dataclass(frozen=True)
 class Groove:
     """One segment to carve: `worn` pressed by `tool` swept along `track`: a sphere of `radius`,
-    or a box whose `corners` (8, 3) are in the worn body's frame at the segment's end."""
+    or the hull of `points` (16, 3: a box's corners, or a prism's cross-section, at both ends of
+    the segment), in the worn body's frame, touching the contact's plane (first touch)."""
 
     worn: str
     tool: str
     radius: float
     track: _Track
     depth: float
-    corners: NDArray[np.float64] | None = None
+    points: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
 class GrooveTool:
     """The solid a groove segment is pressed with, as a hit log records it: a sphere of
     `radius` swept along `length` (a capsule), or, with `points`, the hull of a box's corners
-    at both ends of the segment (16 x 3 float64, the worn body's frame, metres)."""
+    at both ends of the segment or a prism's (16 x 3 float64, the worn body's frame, metres)."""
 
     radius: float = 0.0
     length: float = 0.0
@@ -203,7 +229,7 @@ class WearTracker:
             and body.spec.dentable
             and not isinstance(body.spec.shape, Plane)
             and body.spec.material.wear_coefficient > 0
-            and isinstance(other.spec.shape, Sphere | Box)
+            and isinstance(other.spec.shape, Sphere | Box | Capsule | Cylinder | MeshFile)
         )
 
     def _add(
@@ -218,17 +244,22 @@ class WearTracker:
         point = (inverse @ np.append(slide.point, 1.0))[:3]
         normal = inverse[:3, :3] @ outward
         normal /= np.linalg.norm(normal)
-        # The worn body's surface (the tool's lowest point lifted by the contact's penetration:
-        # first touch), and the path's point on it: a sphere's contact; a box's centre, since
+        # The worn body's surface (a built-in solid's tangent plane with the contact's normal; a
+        # mesh's, the tool's lowest point lifted by the contact's penetration: first touch), and
+        # the path's point on it: a sphere's contact; a box's centre, since
         # its deepest contact jumps between its corners.
         shape = sim.bodies[tool].spec.shape
         centre = (inverse @ sim.model(tool)[:, 3])[:3]
-        if isinstance(shape, Box):
-            lowest = float((_corners(sim, worn, tool, shape) @ normal).min())
+        if isinstance(shape, Sphere):
+            lowest = float(centre @ normal) - shape.radius
+        else:  # its centre: the deepest contact of a box, a lying capsule, a mesh jumps
+            lowest = float((_surface(sim, worn, tool, normal) @ normal).min())
             point = centre
-        else:
-            lowest = float(centre @ normal) - shape.radius  # type: ignore[union-attr]
-        point = point + (lowest + slide.depth - float(point @ normal)) * normal
+        surface = lowest + slide.depth
+        worn_shape = sim.bodies[worn].spec.shape
+        if not isinstance(worn_shape, MeshFile):  # convex: its tangent plane, free of ODE's jitter
+            surface = float(support(worn_shape, normal) @ normal)
+        point = point + (surface - float(point @ normal)) * normal
         track = self.tracks.get((worn, tool))
         if track is None:  # the slide began during this step: its path from the step's start
             physics = sim.scene.physics
@@ -241,7 +272,7 @@ class WearTracker:
             track.volume += volume
         if _length(track) >= SEGMENT_LENGTH:
             self._close(sim, (worn, tool), track)
-            self.tracks[(worn, tool)] = _Track(point, point, point, normal)
+            self.tracks[(worn, tool)] = _Track(point, point, point, normal, fresh=False)
 
     def _close(self, sim: Simulation, key: tuple[str, str], track: _Track) -> None:
         """The segment of `track` into `pending` if it is long and deep enough."""
@@ -250,14 +281,21 @@ class WearTracker:
         if tool is None or length < LENGTH_STEP or track.volume <= 0:
             return
         shape = tool.spec.shape
-        if isinstance(shape, Box):
+        area = track.volume / length
+        if isinstance(shape, Sphere):
+            depth = wear.sphere_groove_depth(shape.radius, area)
+            groove = Groove(key[0], key[1], shape.radius, track, depth)
+        elif isinstance(shape, Box):
             corners = _corners(sim, key[0], key[1], shape)
-            depth = wear.section_depth(_section(corners, track), track.volume / length)
-            groove = Groove(key[0], key[1], 0.0, track, depth, corners)
+            depth = wear.section_depth(_section(corners, track), area)
+            points = _swept_box_points(corners, track)
+            groove = Groove(key[0], key[1], 0.0, track, depth, points)
         else:
-            radius = shape.radius  # type: ignore[union-attr]
-            depth = wear.sphere_groove_depth(radius, track.volume / length)
-            groove = Groove(key[0], key[1], radius, track, depth)
+            swept = _prism(sim, key[0], key[1], track, area)
+            if swept is None:
+                return
+            depth, points = swept
+            groove = Groove(key[0], key[1], 0.0, track, depth, points)
         if depth >= VISIBLE_DEPTH:
             self.pending.append(groove)
 
@@ -284,10 +322,9 @@ class WearTracker:
         mid = model @ np.append((start + end) / 2, 1.0)
         press_in = -(model[:3, :3] @ n)
         contact = ContactFrame(mid[:3], press_in / np.linalg.norm(press_in))
-        if groove.corners is not None:
-            points = _swept_box_points(groove, end - start)
+        if groove.points is not None:
             return Carved(
-                groove.worn, GrooveTool(points=points), model, model, contact, groove.depth
+                groove.worn, GrooveTool(points=groove.points), model, model, contact, groove.depth
             )
         along = end - start
         length = float(np.linalg.norm(along))
@@ -309,6 +346,7 @@ class WearTracker:
                     "tool": tool,
                     **{k: getattr(t, k).tolist() for k in ("start", "end", "point", "normal")},
                     "volume": t.volume,
+                    "fresh": t.fresh,
                 }
                 for (worn, tool), t in self.tracks.items()
             ],
@@ -319,8 +357,10 @@ class WearTracker:
     def restore(self, saved: SavedWear) -> None:
         """Go on from `saved` (pending grooves are carved in the step that makes them: none)."""
         self.clear()
-        for key, (start, end, point, normal, volume) in saved.tracks:
-            self.tracks[key] = _Track(start.copy(), end.copy(), point.copy(), normal.copy(), volume)
+        for key, (start, end, point, normal, volume, fresh) in saved.tracks:
+            self.tracks[key] = _Track(
+                start.copy(), end.copy(), point.copy(), normal.copy(), volume, fresh
+            )
         self.worn = dict(saved.worn)
         self.carved = saved.carved
 
@@ -346,21 +386,173 @@ def press_of(sim: Simulation, carved: Carved, tools: GrooveTools) -> Press:
     return Press(target, tool, carved.contact, carved.depth)
 
 
-def _swept_box_points(groove: Groove, shift: NDArray[np.float64]) -> NDArray[np.float64]:
+def _swept_box_points(corners: NDArray[np.float64], track: _Track) -> NDArray[np.float64]:
     """The corners of a box at both ends of the segment (the hull of them is the box swept
     along it), in the worn body's frame, touching the contact's plane (first touch)."""
-    assert groove.corners is not None
-    track, n = groove.track, groove.track.normal
-    points = np.vstack([groove.corners - shift, groove.corners])
-    points -= n * float(((points - track.point) @ n).min())
-    return points
+    return _touching(np.vstack([corners - _shift(track), corners]), track)
+
+
+def _shift(track: _Track) -> NDArray[np.float64]:
+    """The segment's motion in the contact's plane, m (worn body's frame)."""
+    along = track.end - track.start
+    return along - (along @ track.normal) * track.normal
+
+
+def _touching(points: NDArray[np.float64], track: _Track) -> NDArray[np.float64]:
+    """`points` moved along the contact's normal until the lowest touches its plane."""
+    n = track.normal
+    return points - n * float(((points - track.point) @ n).min())
+
+
+def _surface(sim: Simulation, worn: str, tool: str, normal: NDArray[np.float64]) -> NDArray:
+    """Points of the tool's surface (the worn body's frame, m) that include its lowest along
+    -`normal`: a box's corners, a capsule's or a cylinder's support point, a mesh's vertices."""
+    shape = sim.bodies[tool].spec.shape
+    if isinstance(shape, Box):
+        return _corners(sim, worn, tool, shape)
+    relative = np.linalg.inv(sim.model(worn)) @ sim.model(tool)
+    if isinstance(shape, MeshFile):
+        local = sim.bodies[tool].mesh.positions.astype(np.float64)
+        return local @ relative[:3, :3].T + relative[:3, 3]
+    down = relative[:3, :3].T @ -normal
+    return (relative[:3, :3] @ support(shape, down) + relative[:3, 3])[None, :]
+
+
+def _prism(
+    sim: Simulation, worn: str, tool: str, track: _Track, area: float
+) -> tuple[float, NDArray[np.float64]] | None:
+    """A capsule's, a cylinder's or a mesh patch's groove segment: its depth (the cross-section
+    `area`, m^2) and the prism's 16 points (the worn body's frame, touching the contact's plane):
+    the cross-section across the path at the tool's print's front at the segment's start (what
+    it sweeps anew: the surface behind its front was cut by the segment before; a slide's first
+    segment from the print's back) and at its front at the end. None where the tool shows no
+    cross-section (a knife's edge along the path)."""
+    n = track.normal
+    shift = _shift(track)
+    length = float(np.linalg.norm(shift))
+    along = shift / length
+    across = np.cross(n, along)
+    relative = np.linalg.inv(sim.model(worn)) @ sim.model(tool)
+    shape = sim.bodies[tool].spec.shape
+    if isinstance(shape, MeshFile):
+        found = _patch(sim.bodies[tool].mesh, relative, track, across, along)
+    else:
+        found = _profile(shape, relative, area, n, across, along)
+    if found is None:
+        return None
+    ring, lowest, (back, front) = found
+    depth = wear.section_depth(ring, area)
+    ends = [((back if track.fresh else front) - length, ring), (front, ring)]
+    points = np.array(
+        [x * across + (lowest + y) * n + s * along for s, r in ends for x, y in r], dtype=float
+    )
+    # 16 points: a short ring's repeated (a hull ignores repeats).
+    points = np.vstack([points, np.repeat(points[-1:], 2 * RING_POINTS - len(points), axis=0)])
+    return depth, _touching(points, track)
+
+
+def _ring(flat: NDArray[np.float64], lift: float) -> tuple[list[tuple[float, float]], float] | None:
+    """The convex cross-section (across, height above the lowest) of points seen along the path,
+    at most RING_POINTS corners, and how high its lowest top corner stands (0 for a flat face,
+    which is given walls `lift` high), heights from the kept corners' lowest."""
+    flat = flat.copy()
+    flat[:, 1] -= flat[:, 1].min()
+    width = float(np.ptp(flat[:, 0]))
+    if width <= 1e-12:
+        return None
+    rise = min(float(flat[np.argmin(flat[:, 0]), 1]), float(flat[np.argmax(flat[:, 0]), 1]))
+    if float(flat[:, 1].max()) <= 1e-9 * width:  # a flat face: its edges' walls
+        rise = 0.0
+        walls = flat[[np.argmin(flat[:, 0]), np.argmax(flat[:, 0])]] + np.array([0.0, lift])
+        flat = np.vstack([flat, walls])
+    ring = [(float(flat[i, 0]), float(flat[i, 1])) for i in convex_ring(flat, 1e-12 * width)]
+    kept = wear.simplify_ring(ring, RING_POINTS)
+    # Its lowest corner at 0 (the lowest point may have gone: the cut then starts at the chord).
+    floor = min(y for _, y in kept)
+    return [(x, y - floor) for x, y in kept], rise - floor
+
+
+def _profile(
+    shape: Shape,
+    relative: NDArray[np.float64],
+    area: float,
+    n: NDArray[np.float64],
+    across: NDArray[np.float64],
+    along: NDArray[np.float64],
+) -> tuple[list[tuple[float, float]], float, tuple[float, float]] | None:
+    """A built-in tool's cross-section across the path: the support points of FAN directions
+    fanned across it about -n, in the first cone whose profile stands twice the groove's depth
+    above the lowest point; with the height of that point along n and the print's extent along
+    the path (the support points of the cone's directions fore and aft), m."""
+    rotation, centre = relative[:3, :3], relative[:3, 3]
+
+    def points(directions: NDArray[np.float64]) -> NDArray[np.float64]:
+        local = directions @ rotation  # each direction in the tool's frame
+        return np.array([rotation @ support(shape, d) for d in local]) + centre
+
+    def at(cone: float) -> tuple[tuple[list[tuple[float, float]], float] | None, tuple]:
+        angles = np.linspace(-cone, cone, FAN)
+        fan = points(np.outer(np.cos(angles), -n) + np.outer(np.sin(angles), across))
+        ring = _ring(np.stack([fan @ across, fan @ n], axis=1), shape.bounding_radius())
+        ends = points(np.array([-n * math.cos(cone) + s * along * math.sin(cone) for s in (-1, 1)]))
+        spread = np.vstack([fan, ends]) @ along
+        return ring, (float((fan @ n).min()), (float(spread.min()), float(spread.max())))
+
+    for cone in CONES:
+        found, (lowest, extent) = at(cone)
+        if found is None:
+            continue
+        corners, rise = found
+        depth = wear.section_depth(corners, area)
+        if rise == 0.0 or depth * RISE <= rise or cone == CONES[-1]:
+            break
+    else:
+        return None
+    if rise > 0.0 and depth > 0.0:  # a curved profile rises as the cone squared: fit RISE x d
+        for _ in range(2):
+            cone = min(cone * math.sqrt(RISE * depth / rise), CONES[-1])
+            found, (lowest, extent) = at(cone)
+            if found is None:
+                return None
+            corners, rise = found
+            depth = wear.section_depth(corners, area)
+    return corners, lowest, extent
+
+
+def _patch(
+    mesh: Mesh,
+    relative: NDArray[np.float64],
+    track: _Track,
+    across: NDArray[np.float64],
+    along: NDArray[np.float64],
+) -> tuple[list[tuple[float, float]], float, tuple[float, float]] | None:
+    """A mesh tool's nearest patch: the vertices of its triangles within PATCH_RADIUS of the
+    contact (under the tool's centre, on its lowest level), their cross-section across the
+    path, the height of the lowest along n and their extent along the path, m."""
+    n = track.normal
+    p = mesh.positions.astype(np.float64) @ relative[:3, :3].T + relative[:3, 3]
+    heights = p @ n
+    centre = relative[:3, 3]
+    contact = centre - n * (float(centre @ n) - float(heights.min()))
+    corners = p[mesh.indices.astype(np.int64)]  # (t, 3, 3)
+    middle = corners.mean(axis=1)
+    reach = np.linalg.norm(corners - middle[:, None], axis=2).max(axis=1)
+    near = np.linalg.norm(middle - contact, axis=1) - reach <= PATCH_RADIUS
+    if not near.any():
+        return None
+    patch = np.unique(corners[near].reshape(-1, 3), axis=0)
+    ring = _ring(np.stack([patch @ across, patch @ n], axis=1), PATCH_RADIUS)
+    if ring is None:
+        return None
+    spread = patch @ along
+    return ring[0], float((patch @ n).min()), (float(spread.min()), float(spread.max()))
 
 
 @dataclass(frozen=True)
 class SavedWear:
     """A saved state's `wear`, read and checked (`read_wear`)."""
 
-    #: ((worn, tool), (start, end, point, normal, volume)), local metres and m^3.
+    #: ((worn, tool), (start, end, point, normal, volume, fresh)), local metres and m^3.
     tracks: tuple[tuple[tuple[str, str], tuple], ...]
     worn: dict[str, float]
     carved: int
@@ -383,8 +575,9 @@ def read_wear(r: TableReader, bodies: set[str]) -> SavedWear:
         ]
         normal = np.array(t.vector("normal", None, 3, 1.0 + 1e-6, "length"))
         volume = t.number("volume", None, min_value=0.0, max_value=REACH_M)
+        fresh = t.boolean("fresh", True)
         t.finish()
-        tracks.append((key, (*points, normal, volume)))
+        tracks.append((key, (*points, normal, volume, fresh)))
     worn_table = r.table_at("worn")
     for body in worn_table.table:
         if body not in bodies:

@@ -22,14 +22,20 @@ def register(sub: argparse._SubParsersAction) -> None:
         "dentdemo scratch --tool sphere --tool-size 0.01 --load 50 --distance 0.2 --speed 0.5 "
         "--target-material aluminium --out S/",
     )
-    p.add_argument("--tool", choices=("sphere", "box"), default="sphere", help="tool shape")
+    p.add_argument(
+        "--tool",
+        choices=("sphere", "box", "capsule", "cylinder", "plate"),
+        default="sphere",
+        help="tool shape, lying along the path (a plate face down)",
+    )
     p.add_argument(
         "--tool-size",
         type=float_in(0.0, 100.0, lo_open=True),
         nargs="+",
         default=[0.01],
         metavar="M",
-        help="sphere radius; box edge (or x y z, z along the path), metres",
+        help="sphere radius; box edge (or x y z, z along the path); capsule or cylinder radius "
+        "[length]; plate side, metres",
     )
     p.add_argument(
         "--load", type=float_in(0.0, 1e9), required=True, help="normal force on the tool, N"
@@ -64,7 +70,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=("plate", "box", "sphere"),
         default="plate",
         help="target shape: a plate, or a cube, sized to hold the path, or a sphere dragged along "
-        "a great circle through its top (the groove's cross-section is measured on a plate)",
+        "a great circle through its top by a sphere or a box (the groove's cross-section is "
+        "measured on a plate)",
     )
     p.add_argument(
         "--target-radius",

@@ -171,3 +171,36 @@ def lens_groove_depth(target_radius: float, radius: float, area: float) -> float
     if area <= 0.0:
         return 0.0
     return _bisect(lambda d: lens_area(target_radius, radius, d), area, min(target_radius, radius))
+
+
+def simplify_ring(ring: list[tuple[float, float]], keep: int) -> list[tuple[float, float]]:
+    """A convex polygon (counter-clockwise) cut down to `keep` corners: the corner whose
+    triangle with its two neighbours is smallest is dropped, again and again (Visvalingam); what
+    is left is convex and inside the polygon, and lost only the thinnest slivers of it."""
+    out = list(ring)
+    while len(out) > keep:
+        n = len(out)
+        areas = []
+        for i in range(n):
+            (x0, y0), (x1, y1), (x2, y2) = out[i - 1], out[i], out[(i + 1) % n]
+            areas.append(abs((x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)))
+        del out[areas.index(min(areas))]
+    return out
+
+
+def strip_area(radius: float, width: float, depth: float) -> float:
+    """Cross-section of the groove a flat face `width` wide (square across the path) cuts
+    `depth` deep into a ball of `radius` along a great circle, m^2: the ball's circular segment
+    of that height, clipped to the face's width: over |x| <= a = min(w/2, sqrt(2 R d - d^2)),
+    the integral of sqrt(R^2 - x^2) - (R - d), a sqrt(R^2 - a^2) + R^2 asin(a/R) - 2 a (R - d)."""
+    r = radius
+    d = min(max(depth, 0.0), r)
+    a = min(width / 2.0, math.sqrt(max(2.0 * r * d - d * d, 0.0)))
+    return a * math.sqrt(max(r * r - a * a, 0.0)) + r * r * math.asin(a / r) - 2.0 * a * (r - d)
+
+
+def strip_groove_depth(radius: float, width: float, area: float) -> float:
+    """The depth whose `strip_area` is `area`, m, by bisection on [0, R]."""
+    if area <= 0.0:
+        return 0.0
+    return _bisect(lambda d: strip_area(radius, width, d), area, radius)
