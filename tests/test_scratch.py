@@ -493,3 +493,100 @@ def test_a_scratch_across_a_spheres_chart_seam_has_no_gap(gl, heading):
     for face in (2, 0):
         side = near & (chart == face)
         assert side.sum() > 10 and np.abs(-height - expected)[side].max() < 0.12 * depth, face
+
+
+def _texel_points(mesh, size):
+    """Each texel centre's point on `mesh` and its face's outward normal (rows x cols x 3; NaN
+    where no triangle covers it), by rasterising the atlas's triangles on the CPU: the texel
+    centres inside each triangle's uv, their barycentric weights times its corners."""
+    points = np.full((size, size, 3), np.nan)
+    normals = np.full((size, size, 3), np.nan)
+    p = mesh.positions.astype(np.float64)[mesh.indices]
+    t = mesh.uvs.astype(np.float64)[mesh.indices] * size - 0.5  # texel-centre units
+    for corners, uv in zip(p, t, strict=True):
+        lo = np.floor(uv.min(axis=0)).astype(int)
+        hi = np.ceil(uv.max(axis=0)).astype(int)
+        cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
+        e1, e2 = uv[1] - uv[0], uv[2] - uv[0]
+        det = e1[0] * e2[1] - e1[1] * e2[0]
+        dx, dy = cols - uv[0, 0], rows - uv[0, 1]
+        b1 = (dx * e2[1] - dy * e2[0]) / det
+        b2 = (e1[0] * dy - e1[1] * dx) / det
+        inside = (b1 >= -1e-9) & (b2 >= -1e-9) & (b1 + b2 <= 1 + 1e-9)
+        inside &= (rows >= 0) & (rows < size) & (cols >= 0) & (cols < size)
+        b1, b2 = b1[inside], b2[inside]
+        at = (
+            corners[0]
+            + b1[:, None] * (corners[1] - corners[0])
+            + b2[:, None] * (corners[2] - corners[0])
+        )
+        n = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        points[rows[inside], cols[inside]] = at
+        normals[rows[inside], cols[inside]] = n / np.linalg.norm(n)
+    return points, normals
+
+
+@pytest.mark.parametrize("heading", [0.0, 30.0])
+@pytest.mark.slow
+def test_a_scratch_across_a_boxs_edge_has_no_gap(gl, heading):
+    """A 10 mm ball dragged 10 mm on the top of a 30 mm steel cube to the middle of its +x edge,
+    pivoting about the edge and 10 mm on down the +x face (square to the edge, and 30 degrees
+    oblique). Oracle: the ball's centre runs r - d from the surface (over the faces, and round
+    the edge on a quarter circle r - d from it; d from the test's own bisection of the integrated
+    circle), and a texel sinks along its face's inward normal to the lowest point its line meets
+    the balls along that path. Every texel the oracle puts more than d/4 deep is dented, on the
+    top face's chart and on the +x face's, near the edge too; every texel's depth matches within
+    15 % of d, in the groove and beyond its rim alike."""
+    from dentdemo.app.scratch import Drag, carve_groove, make_scratch
+    from dentdemo.mesh.shapes import Tessellation, shape_mesh
+    from dentdemo.model.materials import load_materials
+    from dentdemo.model.shapes import Box, Sphere
+
+    side, r, load, distance, size = 0.03, 0.01, 5000.0, 0.02, 1024
+    steel = load_materials().get("steel")
+    h = math.radians(heading)
+    cube = Box((side, side, side))
+    setup = make_scratch(
+        gl, cube, Sphere(r), steel, Drag(load, distance, 1.0), size, h, over_edge=True
+    )
+    try:
+        carve_groove(gl, setup)
+        height = gl.read(setup.target.maps.height)[:, :, 0].astype(np.float64)
+    finally:
+        setup.release()
+    depth = _circle_depth(r, 7e-3 * load * distance / 1.18e9 / distance)
+    e = side / 2
+    run = distance / 2
+    u = np.linspace(0.0, run, 201)[:, None]
+    phi = np.linspace(0.0, math.pi / 2, 201)[:, None]
+    k = r - depth
+    path = np.vstack(
+        [
+            np.hstack([e - (run - u) * math.cos(h), e + k + 0 * u, -(run - u) * math.sin(h)]),
+            np.hstack([e + k * np.sin(phi), e + k * np.cos(phi), 0 * phi]),
+            np.hstack([e + k + 0 * u, e - u * math.cos(h), u * math.sin(h)]),
+        ]
+    )
+    points, normals = _texel_points(shape_mesh(cube, Tessellation.press(2)), size)
+    expected = np.zeros(height.shape)
+    for axis, face in ((1, "top"), (0, "side")):
+        on = normals[..., axis] > 0.5  # the +y face's texels, then the +x face's
+        # Those within r of the path's box (the rest the balls never meet).
+        on &= ((points > path.min(axis=0) - r) & (points < path.max(axis=0) + r)).all(axis=2)
+        p = points[on]
+        others = [i for i in range(3) if i != axis]
+        rho2 = sum((p[:, None, i] - path[None, :, i]) ** 2 for i in others)
+        reach = np.sqrt(np.maximum(r * r - rho2, 0.0))
+        met = rho2 < r * r
+        lowest = np.where(met, path[None, :, axis] - reach, np.inf).min(axis=1)
+        highest = np.where(met, path[None, :, axis] + reach, -np.inf).max(axis=1)
+        inside = (highest >= e) & (lowest < e)
+        expected[on] = np.where(inside, e - lowest, 0.0)
+        grooved = on & (expected > depth / 4)
+        assert grooved.sum() > 100, face
+        assert (height[grooved] < 0).all(), (face, (height[grooved] >= 0).sum())
+        near = grooved & (np.abs(points[..., others[0]] - e) < r / 4)  # by the edge
+        assert near.sum() > 10 and (height[near] < 0).all(), face
+    charts = ~np.isnan(normals[..., 0])
+    error = np.abs(-height - expected)[charts]
+    assert error.max() < 0.15 * depth, error.max() / depth

@@ -49,6 +49,7 @@ from dentdemo.carve.carver import CarveBody, Carver, Press
 from dentdemo.carve.surface import create_maps
 from dentdemo.errors import DentdemoError
 from dentdemo.gl.context import GLContext
+from dentdemo.gpu.maps import SurfaceMaps
 from dentdemo.gpu.mesh import GpuMesh
 from dentdemo.mesh.primitives import sphere_texel_areas
 from dentdemo.mesh.shapes import Tessellation, shape_mesh
@@ -224,11 +225,14 @@ class ScratchSetup:
     #: How far each segment is pressed, m: the groove's depth, plus a third of a chord's sag on
     #: a sphere.
     press_depth: float
+    #: Each segment's swept length and press depth, m (across a box's edge the pivot's chords
+    #: differ from the faces' segments).
+    pieces: list[tuple[float, float]]
 
     def release(self) -> None:
-        """The GL objects of both bodies (the segments share one mesh and one map)."""
-        bodies = [self.target, *self.segments[:1]]
-        for body in bodies:
+        """The GL objects of both bodies (segments of one length share one mesh and map)."""
+        bodies = {id(b.gpu_mesh): b for b in [self.target, *self.segments]}
+        for body in bodies.values():
             body.maps.release()
             body.gpu_mesh.release()
 
@@ -273,11 +277,14 @@ def make_scratch(
     heading: float = 0.0,
     max_resolution: int = 1023,
     arc_middle: float = 0.0,
+    over_edge: bool = False,
 ) -> ScratchSetup:
     """The target, and the path centred on the middle of its upper face along `heading` (radians
     from +x towards +z), cut into segments that each fit one collision camera. On a sphere the
     path is the great circle through its top along `heading`, its middle `arc_middle` radians along
-    it from the top."""
+    it from the top. `over_edge` (a cube and a sphere tool): the path's first half runs on the top
+    face to the middle of its +x edge, the ball pivots about the edge, and the second half runs
+    down the +x face (`_over_edge`)."""
     groove = groove_for(tool, material, drag, target_shape)
     target_gpu = GpuMesh(gl, shape_mesh(target_shape, Tessellation.press(2)))
     maps = create_maps(gl, target_gpu, map_size, material.max_dent_depth)
@@ -294,26 +301,35 @@ def make_scratch(
             f"{texel:g} m a texel; use a coarser map"
         )
     poses: list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
-    if isinstance(target_shape, Sphere):  # a sphere or a box tool (groove_for)
+    pieces: list[tuple[float, float]] = []
+    if over_edge:
+        if not isinstance(target_shape, Box) or not isinstance(tool, Sphere):
+            raise DentdemoError("over an edge: a cube target and a sphere tool")
+        start, poses, pieces = _over_edge(target_shape, tool, groove, drag, longest, heading)
+        length, sag = pieces[0][0], 0.0
+    elif isinstance(target_shape, Sphere):  # a sphere or a box tool (groove_for)
         radius = target_shape.radius
         start, poses, length, sag = _arc(radius, tool, groove, drag, longest, heading, arc_middle)
     else:
         count = max(1, math.ceil(drag.distance_m / longest))
         length, sag = drag.distance_m / count, 0.0
         poses = [(start + direction * (i + 0.5) * length, normal, direction) for i in range(count)]
-    solid = swept(tool, length)
-    tool_mesh = shape_mesh(solid, _tessellation(tool, groove.depth))
-    tool_gpu = GpuMesh(gl, tool_mesh)
-    # The tool's texels no coarser than the target's: the camera's pixels grow to one of them.
-    su, sv = tool_mesh.uv_scale()
-    tool_side = min(max(16, math.ceil(max(su, sv) / texel)), 8192)
-    tool_maps = create_maps(gl, tool_gpu, tool_side, 0.0)
+    pieces = pieces or [(length, groove.depth + sag / 3.0)] * len(poses)
+    tools: dict[float, tuple[GpuMesh, SurfaceMaps]] = {}
     segments = []
-    for mid, up, along in poses:
+    for (mid, up, along), (piece, _) in zip(poses, pieces, strict=True):
+        solid = swept(tool, piece)
+        if piece not in tools:
+            tool_mesh = shape_mesh(solid, _tessellation(tool, groove.depth))
+            tool_gpu = GpuMesh(gl, tool_mesh)
+            # The tool's texels no coarser than the target's: the camera's pixels grow to one.
+            su, sv = tool_mesh.uv_scale()
+            tool_side = min(max(16, math.ceil(max(su, sv) / texel)), 8192)
+            tools[piece] = (tool_gpu, create_maps(gl, tool_gpu, tool_side, 0.0))
         # Tool frame: local z along the path, local y along the surface's normal (outwards).
         rotation = np.column_stack([np.cross(up, along), up, along])
         lift = rotation @ support(solid, np.array([0.0, -1.0, 0.0]))
-        segments.append(CarveBody(tool_gpu, tool_maps, _pose(rotation, mid - lift)))
+        segments.append(CarveBody(*tools[piece], _pose(rotation, mid - lift)))
     return ScratchSetup(
         target,
         target_shape,
@@ -326,7 +342,56 @@ def make_scratch(
         segments,
         length,
         groove.depth + sag / 3.0,
+        pieces,
     )
+
+
+def _over_edge(
+    box: Box,
+    tool: Sphere,
+    groove: Groove,
+    drag: Drag,
+    longest: float,
+    heading: float,
+) -> tuple[
+    NDArray[np.float64],
+    list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]],
+    list[tuple[float, float]],
+]:
+    """A path across a cube's +x edge at z = 0: half the distance on the top face along
+    `heading`, ending at the edge; the ball pivoting about the edge (the chords of a quarter
+    circle round it, each touching the edge at its middle: their ends stand r (1/cos - 1)
+    farther out, SAG_FRACTION of the depth at most, and each is pressed a third of that
+    deeper); half down the +x face, the heading's slant kept. Its start (world, on the top
+    face), each segment's middle on the surface with the outward normal and its direction, and
+    each one's swept length and press depth, m."""
+    half = np.asarray(box.size) / 2
+    edge = np.array([half[0], half[1], 0.0])
+    c, s = math.cos(heading), math.sin(heading)
+    faces = [  # (outward normal, direction) of the top part, then of the side part
+        (np.array([0.0, 1.0, 0.0]), np.array([c, 0.0, s])),
+        (np.array([1.0, 0.0, 0.0]), np.array([0.0, -c, s])),
+    ]
+    run = drag.distance_m / 2
+    count = max(1, math.ceil(run / longest))
+    length = run / count
+    top_start = edge - faces[0][1] * run
+    poses = [(top_start + faces[0][1] * (i + 0.5) * length, *faces[0]) for i in range(count)]
+    r = tool.radius
+    step = 2.0 * math.acos(1.0 / (1.0 + SAG_FRACTION * max(groove.depth, 1e-12) / r))
+    chords = max(1, math.ceil(math.pi / 2 / step))
+    step = math.pi / 2 / chords
+    pivot = []
+    for i in range(chords):
+        angle = (i + 0.5) * step  # from +y towards +x about the edge
+        up = np.array([math.sin(angle), math.cos(angle), 0.0])
+        pivot.append((edge.copy(), up, np.array([math.cos(angle), -math.sin(angle), 0.0])))
+    sag = r * (1.0 / math.cos(step / 2) - 1.0)
+    side = [(edge + faces[1][1] * (i + 0.5) * length, *faces[1]) for i in range(count)]
+    chord = 2.0 * r * math.tan(step / 2)
+    pieces = [(length, groove.depth)] * count
+    pieces += [(chord, groove.depth + sag / 3.0)] * chords + [(length, groove.depth)] * count
+    return top_start, poses + pivot + side, pieces
 
 
 #: A cylinder tool's facets sag at most this part of the groove's depth (a built-in cylinder is
@@ -395,12 +460,12 @@ def carve_groove(gl: GLContext, setup: ScratchSetup, carver: Carver | None = Non
     if setup.groove.depth <= 0:
         return 0
     presses = []
-    for body in setup.segments:
+    for body, (length, depth) in zip(setup.segments, setup.pieces, strict=True):
         point = body.centre() + body.model[:3, :3] @ support(
-            swept(setup.tool_shape, setup.segment_length), np.array([0.0, -1.0, 0.0])
+            swept(setup.tool_shape, length), np.array([0.0, -1.0, 0.0])
         )
         contact = ContactFrame(point, -body.model[:3, 1])  # square-on: its local -y
-        presses.append(Press(setup.target, body, contact, setup.press_depth, 0.0))
+        presses.append(Press(setup.target, body, contact, depth, 0.0))
     own = carver or Carver(gl)
     try:
         jobs = own.carve_many(presses)
