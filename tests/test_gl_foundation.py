@@ -215,18 +215,19 @@ def test_a_uniform_no_shader_declares_raises(gl):
     target = gl.ctx.texture((4, 4), 4)
     fbo = gl.ctx.framebuffer([target])
     draw = lambda prog: None  # noqa: E731 (no geometry: only the uniforms are written)
-    # u_map_size is texel.geom's, which this variant lacks: skipped, as a shared dict needs.
-    assert "u_map_size" in library_uniforms() and "u_map_size" not in normals.program
-    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_size": (4, 4)})
+    # u_rect is rect.vert's, which this variant lacks: skipped, as a shared dict needs.
+    assert "u_rect" in library_uniforms() and "u_rect" not in normals.program
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_rect": (0, 0, 4, 4)})
     # A variant selector is not a uniform.
     normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_swept": True})
     # Always, with no environment to switch it: skipped names are remembered per program, but
-    # only those some shader declares, so the misspelt one raises each time.
-    for _ in range(2):
-        with pytest.raises(ShaderError, match="u_map_sise"):
-            normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_sise": (4, 4)})
-    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_map_size": (4, 4)})
-    assert "u_map_size" in normals.program.extra.absent
+    # only those some shader declares, so the misspelt one raises each time; and so does a
+    # value of the job table's entries (job.glsl) given as a uniform.
+    for name in ("u_rekt", "u_rekt", "u_eye"):
+        with pytest.raises(ShaderError, match=name):
+            normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {name: (4, 4)})
+    normals.run(gl.ctx, fbo, (0, 0, 4, 4), draw, (target, target), {"u_rect": (0, 0, 4, 4)})
+    assert "u_rect" in normals.program.extra.absent
     release(fbo, target)
 
 
@@ -248,12 +249,12 @@ def test_each_carve_program_is_held_to_its_familys_typed_uniforms(gl):
     from dentdemo.carve.texel_passes import texture_space_passes
 
     passes = texture_space_passes(gl)
-    gather = passes["gather", 0, False, True, False]
+    gather = passes["gather", 2, True, True, True]  # RECT: util/rect.vert's u_rect
     check_program(gather.program, TexelUniforms, gather.samplers, "gather")  # as built
-    assert "u_min_height" in gather.program
-    with pytest.raises(ShaderError, match=r"gather.*u_min_height.*SurfaceUniforms"):
+    assert "u_rect" in gather.program
+    with pytest.raises(ShaderError, match=r"gather.*u_rect.*SurfaceUniforms"):
         check_program(gather.program, SurfaceUniforms, gather.samplers, "gather")
-    with pytest.raises(ShaderError, match="u_address"):  # its samplers are named by the pass
+    with pytest.raises(ShaderError, match="u_tool_depth"):  # its samplers are named by the pass
         check_program(gather.program, TexelUniforms, (), "gather")
 
     @dataclass(frozen=True)
@@ -268,16 +269,69 @@ def test_each_carve_program_is_held_to_its_familys_typed_uniforms(gl):
         family_names(Family)
 
 
+def test_the_job_tables_layout_is_held_to_the_drivers_and_to_the_parameter_groups(gl, monkeypatch):
+    """Every carve program reads the job table (job.glsl's std140 entries) at the offsets the
+    driver gives its members; a program whose entry is laid out otherwise (two members swapped)
+    is refused at build time, naming the member and both offsets. The entry's members are the
+    fields of the parameter groups it is filled from, and a source that lacks one is refused."""
+    from dataclasses import fields
+
+    from dentdemo.carve import params
+    from dentdemo.carve.jobs import EntryLayout, check_layout, entry_layout
+    from dentdemo.carve.params import ENTRY_GROUPS, check_entry
+    from dentdemo.carve.texel_passes import texture_space_passes
+    from dentdemo.gl.shaders import shaders_dir
+
+    layout = entry_layout()
+    assert layout.names() == {f.name for group in ENTRY_GROUPS for f in fields(group)}
+    # std140 by hand: a mat4 is 64 bytes, a mat3 three 16-byte columns, a vec3 aligned to 16.
+    offsets = {name: at for name, _, at in layout.members}
+    assert (offsets["u_normal_matrix"], offsets["u_swept_local"], offsets["u_eye"]) == (
+        64,
+        112,
+        160,
+    )
+    assert (offsets["u_advance"], offsets["u_right"]) == (172, 176)
+    assert layout.stride % 16 == 0 and layout.stride >= offsets["u_clip"] + 4
+    for pass_ in texture_space_passes(gl).values():  # as built: they passed the check
+        check_layout(pass_.program, "as built")
+
+    source = (shaders_dir() / "carve/job.glsl").read_text(encoding="utf-8")
+    swapped = (
+        source.replace("    vec3 eye;", "    float SWAP;")
+        .replace("    float advance;", "    vec3 eye;")
+        .replace("    float SWAP;", "    float advance;")
+    )
+    assert swapped != source
+    vertex = (
+        "#version 330 core\n#define JOB_ENTRIES 40\n" + swapped + "\nvoid main() {"
+        " gl_Position = vec4(u_eye, u_advance); }"
+    )
+    fragment = "#version 330 core\nout vec4 f;\nvoid main() { f = vec4(1.0); }"
+    prog = gl.ctx.program(vertex_shader=vertex, fragment_shader=fragment)
+    with pytest.raises(
+        ShaderError, match=r"u_entries\[0\]\.eye lies at byte 176, carve/jobs.py packs 160"
+    ):
+        check_layout(prog, "swapped")
+    prog.release()
+    check_entry()  # as built
+    lacking = EntryLayout(source.replace("    vec2 ring_slab;", ""))
+    assert lacking.names() == layout.names() - {"u_ring_slab"}
+    monkeypatch.setattr(params, "entry_layout", lambda: lacking)
+    with pytest.raises(ShaderError, match=r"CarveEntry lacks \['u_ring_slab'\]"):
+        check_entry()
+
+
 def test_a_uniform_set_again_to_its_value_is_skipped_and_a_new_value_is_not(gl):
     from dentdemo.carve.texel_passes import texture_space_passes
     from dentdemo.gl.shaders import set_uniform
 
-    prog = texture_space_passes(gl)["normals", 1, False].program
+    prog = texture_space_passes(gl)["normals", 2, False].program
     writes = []
-    member = prog["u_map_size"]
-    for value in [(8, 8), (8, 8), (16, 4), (16, 4), (8, 8)]:
-        before = prog.extra.last.get("u_map_size")
-        set_uniform(prog, "u_map_size", value)
+    member = prog["u_rect"]
+    for value in [(8, 8, 1, 1), (8, 8, 1, 1), (16, 4, 2, 2), (16, 4, 2, 2), (8, 8, 1, 1)]:
+        before = prog.extra.last.get("u_rect")
+        set_uniform(prog, "u_rect", value)
         writes.append(before != value)
         assert tuple(member.value) == value  # what GL holds, read back
     assert writes == [True, False, True, False, True]
@@ -377,31 +431,34 @@ def test_a_shared_batch_binds_only_what_changed_and_each_draw_samples_its_own(gl
 
 
 def test_set_uniforms_writes_each_kind_of_uniform_every_time_it_changes(gl):
-    """set_uniforms on a library program (its writers cached after the first write of each
-    name) writes floats, vectors, integer vectors, booleans and column-major matrices: read back
+    """set_uniforms on library programs (their writers cached after the first write of each
+    name) writes floats, vectors, integers, integer vectors and column-major matrices: read back
     from GL after each of three rounds of new values, every uniform holds what was set last."""
-    from dentdemo.carve.constants import shader_defines
     from dentdemo.gl.shaders import ShaderLibrary, set_uniforms
 
-    defines = shader_defines(GUTTER=1)  # the gutter variant: u_map_size is an ivec2
-    prog = ShaderLibrary().program(
-        gl.ctx, "carve/texel.vert", "carve/normals.frag", "carve/texel.geom", defines=defines
-    )
+    sky = ShaderLibrary().program(gl.ctx, "util/fullscreen.vert", "render/sky.frag")
+    bake = ShaderLibrary().program(gl.ctx, "util/fullscreen.vert", "render/bake_environment.frag")
     rng = np.random.default_rng(3)
     for _ in range(3):
         model = rng.normal(size=(4, 4))
         values = {
-            "u_eye": tuple(rng.normal(size=3)),
-            "u_clip_half": tuple(rng.uniform(0.1, 1.0, size=2)),
-            "u_map_size": tuple(int(v) for v in rng.integers(1, 500, size=2)),
-            "u_clip": bool(rng.integers(0, 2)),
-            "u_model": model.T.astype("f4").tobytes(),  # column-major
+            "u_inverse_view_proj": model.T.astype("f4").tobytes(),  # column-major
+            "u_viewport": tuple(rng.uniform(0.1, 1.0, size=2)),
+            "u_exposure": float(rng.uniform(0.1, 1.0)),
+            "u_levels": int(rng.integers(1, 9)),
         }
-        set_uniforms(prog, values)
-        assert prog["u_eye"].value == pytest.approx(values["u_eye"], rel=1e-6)
-        assert prog["u_clip_half"].value == pytest.approx(values["u_clip_half"], rel=1e-6)
-        assert prog["u_map_size"].value == values["u_map_size"]
-        assert bool(prog["u_clip"].value) == values["u_clip"]
-        read = np.frombuffer(prog["u_model"].read(), "f4").reshape(4, 4).T
+        baked = {
+            "u_sun_dir": tuple(rng.normal(size=3)),
+            "u_level_size": tuple(int(v) for v in rng.integers(1, 500, size=2)),
+        }
+        set_uniforms(sky, values)
+        set_uniforms(bake, baked)
+        assert sky["u_viewport"].value == pytest.approx(values["u_viewport"], rel=1e-6)
+        assert sky["u_exposure"].value == pytest.approx(values["u_exposure"], rel=1e-6)
+        assert sky["u_levels"].value == values["u_levels"]
+        assert bake["u_sun_dir"].value == pytest.approx(baked["u_sun_dir"], rel=1e-6)
+        assert bake["u_level_size"].value == baked["u_level_size"]
+        read = np.frombuffer(sky["u_inverse_view_proj"].read(), "f4").reshape(4, 4).T
         assert np.array_equal(read, model.astype("f4"))
-    prog.release()
+    sky.release()
+    bake.release()

@@ -74,6 +74,7 @@ _BOOLS = {"depth_mask": (0x0B72, 1), "color_mask": (0x0C23, 4)}
 _DEPTH_CLEAR_VALUE = 0x0B73
 _TEXTURE0, _TEXTURE_BINDING_2D, _SAMPLER_BINDING = 0x84C0, 0x8069, 0x8919
 _LINE = 0x1B01
+_UNIFORM_BUFFER_BINDING, _UNIFORM_BUFFER_START, _UNIFORM_BUFFER_SIZE = 0x8A28, 0x8A29, 0x8A2A
 _CULL_NAMES = {0x0404: "front", 0x0405: "back", 0x0408: "front_and_back"}
 _FRONT_NAMES = {0x0900: "cw", 0x0901: "ccw"}
 _DEPTH_NAMES = {
@@ -122,6 +123,14 @@ def driver_state() -> dict[str, object]:
     state["clear_depth"] = _read(gl.glGetDoublev, ctypes.c_double, _DEPTH_CLEAR_VALUE, 1)
     state["textures"] = _per_unit(gl, _TEXTURE_BINDING_2D)
     state["samplers"] = _per_unit(gl, _SAMPLER_BINDING)
+    # Uniform-buffer binding 0 (the carve binds its job table there by range) and the generic one.
+    block = (ctypes.c_int * 1)()
+    gl.glGetIntegeri_v(_UNIFORM_BUFFER_BINDING, 0, block)
+    span = [(ctypes.c_int64 * 1)() for _ in range(2)]
+    gl.glGetInteger64i_v(_UNIFORM_BUFFER_START, 0, span[0])
+    gl.glGetInteger64i_v(_UNIFORM_BUFFER_SIZE, 0, span[1])
+    state["uniform_block0"] = (block[0], span[0][0], span[1][0])
+    state["uniform_buffer"] = _read(gl.glGetIntegerv, ctypes.c_int, _UNIFORM_BUFFER_BINDING, 1)
     return state
 
 
@@ -229,6 +238,8 @@ def hostile_state(ctx: moderngl.Context, filters: tuple[int, int]) -> Iterator[N
     target = ctx.framebuffer([ctx.texture((64, 48), 4)], ctx.depth_renderbuffer((64, 48)))
     sampler = ctx.sampler(filter=filters)
     textures = [ctx.texture((4, 4), 1) for _ in range(UNITS)]
+    block = ctx.buffer(reserve=1024)
+    block.bind_to_uniform_block(0, offset=256, size=512)  # the host's own range at binding 0
     target.use()
     ctx.viewport = (3, 5, 41, 37)
     ctx.scissor = (1, 2, 30, 20)
@@ -263,7 +274,7 @@ def hostile_state(ctx: moderngl.Context, filters: tuple[int, int]) -> Iterator[N
         gl.glActiveTexture(_TEXTURE0)
         gl.glClearColor(*(ctypes.c_float(0.0) for _ in range(4)))
         gl.glClearDepth(ctypes.c_double(1.0))
-        for thing in (sampler, *textures):
+        for thing in (sampler, *textures, block):
             thing.release()
         from dentdemo.gl.context import release
 

@@ -14,7 +14,7 @@
 
 uniform sampler2D u_height;  // target height map, R32F metres
 uniform sampler2D u_tool;    // pass 3: (back depth, coverage, -, front depth), metres
-uniform float u_advance;     // how far the tool was advanced along u_forward, metres
+// u_advance (how far the tool was advanced along u_forward): the job's entry (job.glsl).
 
 layout(location = 0) out vec4 f_address;  // (u, v, view depth, bumped view depth), metres
 
@@ -28,7 +28,7 @@ bool behind_tool(float bumped) {
 
 #if QUAD  // a built-in sphere or capsule as one quad: where the pixel's view line enters the exact solid
 #include "quad_uv.glsl"
-uniform float u_near_clip;  // surface.vert's clip distance, done here: view depth, metres
+// u_near_clip: surface.vert's clip distance, done here (job.glsl).
 
 void main() {
     ivec2 size = textureSize(u_height, 0);

@@ -2,15 +2,9 @@
 #ifndef QUAD
 #define QUAD 0  // 1, 2: a built-in sphere, capsule drawn as one quad (quad.vert) in passes 2, 3
 #endif
-uniform vec3 u_eye;          // camera origin
-uniform vec3 u_right;        // unit; screen +x
-uniform vec3 u_up;           // unit; screen +y
-uniform vec3 u_forward;      // unit; the press direction, into the screen
-uniform vec2 u_half_extent;  // half width and height of the view, metres
-uniform vec2 u_depth_range;  // near and far distance along u_forward from u_eye, metres
-uniform ivec2 u_resolution;  // camera pixels (columns, rows) in use in the scratch buffers
-uniform ivec2 u_tile;        // the camera's pixel (0, 0) in the scratch atlas (passes 2, 3 draw
-                             // there through the viewport; pass 4 reads there)
+// u_eye, u_right, u_up, u_forward, u_half_extent, u_depth_range, u_resolution and u_tile
+// (the camera's pixel (0, 0) in the scratch atlas): the job's entry (job.glsl).
+#include "job.glsl"
 
 // Window depth in [0, 1] of a view depth in metres (linear: the camera is orthographic).
 float window_depth(float depth) {

@@ -2,7 +2,7 @@
 // surface of revolution about local z, u around it, v along the profile by its polyline's length:
 // the lower hemisphere's rows, the straight side, the upper hemisphere's rows), worked out from the
 // point itself, for passes drawn as one quad (QUAD 2). ATLAS_GUTTER comes from primitives.py.
-uniform vec3 u_capsule;  // local metres: radius, half the straight length; rows per hemisphere
+// u_capsule (local metres: radius, half the straight length; rows per hemisphere): job.glsl.
 
 vec2 capsule_uv(vec3 world) {
     const float HALF_PI = 1.5707963267948966, TWO_PI = 6.283185307179586;

@@ -2,9 +2,8 @@
 // rectangle and depth slab (needs camera.glsl): as clip distances of the vertices (texel.vert,
 // texel.geom), or tested per fragment where CLIP_IN_FRAGMENT is 1 (RECT 1 draws one rectangle of
 // texels, whose corners lie on no surface).
-uniform bool u_clip;        // false: the whole map (creation, import)
-uniform vec2 u_clip_half;   // half width and height of the kept rectangle, camera metres
-uniform vec2 u_slab;        // kept view depths [near, far], metres along u_forward from u_eye
+// u_clip (false: the whole map), u_clip_half (camera metres) and u_slab (view depths [near,
+// far], metres): the job's entry (job.glsl).
 
 // How far (metres) `world` lies inside each side of the footprint: the rectangle's four, then
 // the slab's near and far; >= 0 inside all.

@@ -7,11 +7,8 @@
 // along N + tan(s pi/4) A + tan(t pi/4) B, s = 2c/n - 1, t = 2r/n - 1 (the equal-angle warp).
 // Needs camera.glsl, chart.glsl, the CUBE_FACE_* and ATLAS_GUTTER defines, and texel.glsl's
 // t_uv, t_world, t_normal, t_thickness (written here).
-uniform mat4 u_model;          // world from local, metres
-uniform mat3 u_normal_matrix;  // world from local, for normals
-uniform ivec2 u_map_size;      // surface-map texels (columns, rows)
-uniform int u_cube_grid;       // n: cells along each cube-face edge
-uniform float u_cube_radius;   // the sphere's radius, local metres
+// u_model, u_normal_matrix, u_map_size, u_cube_grid (n: cells along each cube-face edge) and
+// u_cube_radius (local metres): the job's entry (job.glsl).
 
 // Grid point (c, r) of the cube face whose normal and s and t axes are `axes` (`warp`:
 // tan(s pi/4), tan(t pi/4) there) as corner `i` of the triangle: its world point and normal, and

@@ -27,10 +27,7 @@
 #endif
 
 uniform sampler2D u_address;     // pass 2: (u, v, view depth, bumped view depth)
-uniform float u_min_height;      // -max_dent_depth of the target, metres
-uniform float u_ceiling;         // no texel of the target is higher than this, metres
-uniform float u_pixel_diagonal;  // a camera pixel's diagonal, metres
-uniform float u_advance;         // how far the tool was advanced along u_forward, metres
+// u_min_height, u_ceiling, u_pixel_diagonal and u_advance: the job's entry (job.glsl).
 
 out float f_height;
 

@@ -1,6 +1,6 @@
 // Passes 2 and 3 drawn as one quad (QUAD 1: a built-in sphere, QUAD 2: a built-in capsule): the
 // surface-map address of a point on the solid, from the point itself.
-uniform mat3 u_swept_local;  // local from world, for a direction (the body's pose inverted)
+// u_swept_local (local from world, for a direction): the job's entry (job.glsl).
 
 #if QUAD == 1
 #include "sphere_uv.glsl"

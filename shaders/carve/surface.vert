@@ -9,10 +9,8 @@
 #define v_world g_world
 #endif
 
-uniform mat4 u_model;          // world from local, metres
-uniform mat3 u_normal_matrix;  // world from local, for normals
-uniform float u_near_clip;     // pass 2 (one clip distance): no surface nearer than this view
-                               // depth, metres: it lies behind the tool (docs/carve.md)
+// u_model, u_normal_matrix and u_near_clip (pass 2's one clip distance: no surface nearer than
+// this view depth, metres: it lies behind the tool; docs/carve.md): the job's entry (job.glsl).
 
 in vec3 in_position;  // local metres
 in vec3 in_normal;    // local, unit

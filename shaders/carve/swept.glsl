@@ -5,9 +5,7 @@
 #ifndef SWEPT
 #define SWEPT 0
 #endif
-uniform vec3 u_swept_a;
-uniform vec3 u_swept_b;
-uniform float u_swept_radius;
+// u_swept_a, u_swept_b, u_swept_radius: the job's entry (job.glsl, through camera.glsl).
 
 vec3 swept_axis_point(vec3 p) {
     vec3 ab = u_swept_b - u_swept_a;

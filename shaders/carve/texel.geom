@@ -8,7 +8,7 @@
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 4) out;
 
-uniform ivec2 u_map_size;   // surface-map texels (columns, rows)
+// u_map_size (surface-map texels): the job's entry (job.glsl).
 
 in vec3 g_world[];
 in vec3 g_normal[];

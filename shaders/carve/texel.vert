@@ -9,8 +9,7 @@
 #define GUTTER 0
 #endif
 
-uniform mat4 u_model;          // world from local, metres
-uniform mat3 u_normal_matrix;  // world from local, for normals
+// u_model (world from local) and u_normal_matrix: the job's entry (job.glsl).
 
 in vec3 in_position;  // local metres
 in vec3 in_normal;    // local, unit

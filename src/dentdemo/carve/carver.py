@@ -26,8 +26,17 @@ from dentdemo.carve.camera import (
     collision_cameras,
 )
 from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
+from dentdemo.carve.jobs import JobTable
 from dentdemo.carve.linear import inverse3
-from dentdemo.carve.params import Advance, Gather, Quad, Rect, SurfaceUniforms, check_program
+from dentdemo.carve.params import (
+    Advance,
+    Draw,
+    Gather,
+    Quad,
+    Rect,
+    SurfaceUniforms,
+    check_program,
+)
 from dentdemo.carve.texel_passes import (
     CHART,
     GUTTER,
@@ -256,6 +265,21 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
 
 
+def _entries(job: CarveJob) -> tuple[dict[str, object], dict[str, object]]:
+    """`job`'s two entries of the batch's job table: its target's (passes 2, 4 and 5: the
+    camera, the target's pose and solid, the press, the clip box and both slabs, the gather's
+    bounds) and its tool's (pass 3: the camera, the tool's pose and solid)."""
+    cam, maps = job.camera, job.target.maps
+    px, py = cam.pixel_metres
+    bounds = Gather(
+        u_min_height=-maps.max_dent_depth,
+        u_ceiling=maps.max_height,
+        u_pixel_diagonal=math.hypot(px, py),
+    )
+    target = {**job.target_uniforms, **clip_uniforms(cam, maps).values(), **bounds.values()}
+    return target, job.tool_uniforms
+
+
 @contextlib.contextmanager
 def _from_neutral(ctx: moderngl.Context) -> Iterator[None]:
     """`preserved` without the host's state: the body starts from `neutral` state, and what
@@ -365,6 +389,8 @@ class Carver:
                 self._surface[key] = Pass(name, prog, state, samplers, VARIANT_KEYS)
         self._quad_vaos: dict[int, moderngl.VertexArray] = {}
         self._texel = texture_space_passes(gl)
+        #: The entries of the batch being drawn: job k's target at 2k, its tool at 2k + 1.
+        self._jobs = JobTable(gl.ctx)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
         #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
@@ -440,21 +466,23 @@ class Carver:
         by the map they write. The undo log (if any) records `record` (every hit of the call:
         one entry, the maps before all of it) before the first gather writes; `meanwhile` (if
         any) runs once the gathers are flushed, before the normal rebuilds."""
-        self._camera_stage(jobs)
+        self._camera_stage(jobs)  # writes the batch's job table
         # Hand passes 3 and 2 to the rasteriser now: a software one draws them while the CPU
         # goes on (the undo log's snapshot, the gathers' draws), instead of when the first
         # gather samples their result.
         flush()
         if record is not None and self._options.undo_log is not None:
             self._options.undo_log.record(record)
-        by_map = sorted(jobs, key=lambda job: id(job.target.maps))  # one map's draws together
+        # One map's draws together; each job with its place in the batch (its entries).
+        by_map = sorted(enumerate(jobs), key=lambda placed: id(placed[1].target.maps))
         rects, quad = self._switches.rect_texels_per_triangle, self._draw_quad
-        draws = [list(_texel_draws(job, rects, quad)) for job in by_map]  # passes 4 and 5 share
+        draws = [list(_texel_draws(job, rects, quad)) for _, job in by_map]  # passes 4, 5 share
         with self._timed("gather"):
             self._gather_passes(by_map, draws)
         if meanwhile is not None:
             flush()  # the gathers drawn while the host's work runs
             meanwhile()
+            self._jobs.forget()  # the host's work may have bound another uniform buffer
         with self._timed("normals"):
             self._normal_passes(by_map, draws)
         # And pass 5 now, for the same reason: the host's CPU work after the batch then
@@ -499,6 +527,8 @@ class Carver:
         }
         first = np.zeros(1, dtype=np.int64)  # any triangle: the empty viewport drops it
         with preserved(self.gl.ctx):
+            self._jobs.forget()
+            self._jobs.use(0)  # a table bound, whatever it holds: no fragment reads it
             for name, pass_, subset in draws:
                 fbo, textures = targets[name]
                 draw = gpu_mesh.drawer(first, subset) if subset else self._draw_quad
@@ -549,6 +579,7 @@ class Carver:
 
     def release(self) -> None:
         self.scratch.release()
+        self._jobs.release()
         release(*self._quad_vaos.values())
 
     def _clear(
@@ -680,35 +711,43 @@ class Carver:
         after one clear of the tiles' bounding box; pass 2 only for the targets that may hide
         part of themselves (not `convex`), unless `address_every_target`."""
         scratch = self.scratch
+        self._jobs.write([entry for job in jobs for entry in _entries(job)])
+        indexed = list(enumerate(jobs))
         with self._timed("peel"):
             self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
-            self._camera_passes("peel", scratch.peel_fbo, jobs)
-        hiding = [job for job in jobs if self._options.address_every_target or not job.convex]
+            self._camera_passes("peel", scratch.peel_fbo, indexed)
+        every = self._options.address_every_target
+        hiding = [(k, job) for k, job in indexed if every or not job.convex]
         if hiding:
             with self._timed("address"):
-                self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), hiding)
+                cleared = [job for _, job in hiding]
+                self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), cleared)
                 self._camera_passes("address", scratch.address_fbo, hiding)
 
-    def _camera_passes(self, name: str, fbo: moderngl.Framebuffer, jobs: list[CarveJob]) -> None:
+    def _camera_passes(
+        self, name: str, fbo: moderngl.Framebuffer, jobs: list[tuple[int, CarveJob]]
+    ) -> None:
         """Pass 2 ("address": each job's target) or 3 ("peel": its tool) drawn by each job's
         collision camera into its tile of `fbo` (cleared by the batch), sampling the body's own
         height map (pass 2 also pass 3's result); the state is applied once, each variant's
-        draws together."""
+        draws together. `jobs`: each with its place in the batch's job table."""
         inputs = (self.scratch.tool_depth,) if name == "address" else ()
+        tool = name == "peel"
         variants: dict[tuple, list[tuple]] = {}
-        for job in jobs:
-            body = job.target if name == "address" else job.tool
-            triangles = job.camera.target_texels if name == "address" else job.camera.tool_view
-            uniforms = job.target_uniforms if name == "address" else job.tool_uniforms
+        for k, job in jobs:
+            body = job.tool if tool else job.target
+            triangles = job.camera.tool_view if tool else job.camera.target_texels
+            uniforms = job.tool_uniforms if tool else job.target_uniforms
             kind = uniforms.get("u_quad", 0)
             quad = kind if self._switches.swept_quads and isinstance(kind, int) else 0
             draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
-            item = (job.viewport, draw, (body.maps.height, *inputs), uniforms)
+            item = (job.viewport, draw, (body.maps.height, *inputs), 2 * k + tool)
             variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)
         with shared_batch(self.gl.ctx, fbo, _SURFACE_PASSES[name][0]) as one:
             for variant, items in variants.items():
-                for item in items:
-                    one(self._surface[variant], *item)
+                for viewport, draw, textures, entry in items:
+                    index = Draw(u_job=self._jobs.use(entry)).values()
+                    one(self._surface[variant], viewport, draw, textures, index)
 
     def _draw_quad(self, prog: moderngl.Program) -> None:
         """quad.vert's four corners (no vertex data)."""
@@ -717,56 +756,47 @@ class Carver:
         self._quad_vaos[prog.glo].render(moderngl.TRIANGLE_STRIP, vertices=4)
 
     # -- pass 5 --------------------------------------------------------------------------------
-    def _normal_passes(self, jobs: list[CarveJob], draws: list[list[tuple]]) -> None:
-        """Pass 5 of `jobs` (sorted by the map they dent; `draws`: each one's `_texel_draws`)
-        over their footprints' texels and the ring beside them: the state applied once, each
-        map's framebuffer bound once."""
+    def _normal_passes(self, jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]]) -> None:
+        """Pass 5 of `jobs` (each with its place in the batch, sorted by the map they dent;
+        `draws`: each one's `_texel_draws`) over their footprints' texels and the ring beside
+        them (RING 1: the entry's `ring_slab`): the state applied once, each map's framebuffer
+        bound once."""
         items: list[tuple] = []
-        for job, texel_draws in zip(jobs, draws, strict=True):
-            cam, maps = job.camera, job.target.maps
-            uniforms = {**job.target_uniforms, **clip_uniforms(cam, maps, cam.ring_slab).values()}
+        for (k, job), texel_draws in zip(jobs, draws, strict=True):
+            maps = job.target.maps
             for kind, draw, own in texel_draws:
                 pass_ = self._texel["normals", kind, False]
-                values = {**uniforms, **own} if own else uniforms
-                items.append(
-                    (pass_, maps.normal_fbo, maps.size, draw, (maps.height, maps.mask), values)
-                )
+                textures = (maps.height, maps.mask)
+                items.append((pass_, maps.normal_fbo, maps.size, draw, textures, 2 * k, own))
         self._texture_space(items)
 
     # -- pass 4 --------------------------------------------------------------------------------
-    def _gather_passes(self, jobs: list[CarveJob], draws: list[list[tuple]]) -> None:
-        """Pass 4 of `jobs` (sorted by the map they dent; `draws`: each one's `_texel_draws`):
-        the state applied once (every variant has the same), each map's framebuffer bound
-        once."""
+    def _gather_passes(self, jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]]) -> None:
+        """Pass 4 of `jobs` (each with its place in the batch, sorted by the map they dent;
+        `draws`: each one's `_texel_draws`): the state applied once (every variant has the
+        same), each map's framebuffer bound once."""
         items: list[tuple] = []
-        for job, texel_draws in zip(jobs, draws, strict=True):
+        for (k, job), texel_draws in zip(jobs, draws, strict=True):
             cam, maps = job.camera, job.target.maps
-            px, py = cam.pixel_metres
-            bounds = Gather(
-                u_min_height=-maps.max_dent_depth,
-                u_ceiling=maps.max_height,
-                u_pixel_diagonal=math.hypot(px, py),
-            )
-            uniforms = {
-                **job.target_uniforms,
-                **clip_uniforms(cam, maps, cam.slab).values(),
-                **bounds.values(),
-            }
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
+            swept = bool(job.target_uniforms["u_swept"])
             for kind, draw, own in texel_draws:
-                key = ("gather", kind, bool(uniforms["u_swept"]), job.oblique, job.convex)
-                values = {**uniforms, **own} if own else uniforms
-                items.append((self._texel[key], maps.height_fbo, maps.size, draw, textures, values))
+                pass_ = self._texel["gather", kind, swept, job.oblique, job.convex]
+                items.append((pass_, maps.height_fbo, maps.size, draw, textures, 2 * k, own))
         self._texture_space(items)
 
     def _texture_space(self, items: list[tuple]) -> None:
         """Passes of one state drawn over `items` (pass, framebuffer, map size, draw, textures,
-        uniforms) in order, each over the whole of its framebuffer's map. The draws into one
-        map's texels are disjoint (a chart draw keeps the texels in its chart, a gutter draw
-        those outside), so their order changes no texel."""
+        the entry of the job table, the draw's own uniforms or None) in order, each over the
+        whole of its framebuffer's map. The draws into one map's texels are disjoint (a chart
+        draw keeps the texels in its chart, a gutter draw those outside), so their order
+        changes no texel."""
         if not items:
             return
         with shared_batch(self.gl.ctx, items[0][1], items[0][0].state) as one:
-            for pass_, fbo, size, draw, textures, uniforms in items:
-                one(pass_, (0, 0, *size), draw, textures, uniforms, into=fbo)
+            for pass_, fbo, size, draw, textures, entry, own in items:
+                values = Draw(u_job=self._jobs.use(entry)).values()
+                if own:
+                    values = {**values, **own}
+                one(pass_, (0, 0, *size), draw, textures, values, into=fbo)

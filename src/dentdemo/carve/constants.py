@@ -41,6 +41,9 @@ SLAB_MARGIN_TEXELS = 0.25
 #: Pass 5 also rebuilds the texels this many texels beyond pass 4's slab: the neighbours whose
 #: central differences read a changed height.
 RING_TEXELS = 1.5
+#: Entries of a batch's job table (shaders/carve/job.glsl) one uniform-buffer range holds: 40
+#: entries of 352 bytes fit GL 3.3's smallest uniform block (16 KiB).
+JOB_ENTRIES = 40
 #: Address-map clear value of u: no target surface at that camera pixel.
 NO_SURFACE = -1.0
 #: The chart mask's bits (R8UI, one byte a texel): the texel itself lies inside a UV chart, then
@@ -63,6 +66,7 @@ def shader_defines(**extra: object) -> dict[str, object]:
         "TOOL_SUBPIXELS": repr(float(TOOL_SUBPIXELS)),
         "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),
         "NO_SURFACE": repr(float(NO_SURFACE)),
+        "JOB_ENTRIES": str(JOB_ENTRIES),
         **{
             name: f"{value}u"
             for name, value in (

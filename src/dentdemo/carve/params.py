@@ -1,9 +1,12 @@
 """The carve's shader parameters, typed: each family of passes (passes 2 and 3 seen by the
-collision camera, passes 4 and 5 drawn in texture space) has a frozen dataclass of its uniforms,
-made of small groups (one per include or stage that declares them), and its variants are picked
-by enums. `check_program` holds each program, when it is built, to its family: every uniform
-the program keeps must be a field of it (the others a compiler dropped from a variant are
-skipped when set), and every field must be a uniform some shader declares."""
+collision camera, passes 4 and 5 drawn in texture space) has a frozen dataclass of its values,
+made of small groups (one per include or stage that reads them), and its variants are picked
+by enums. The groups of `ENTRY_GROUPS` are a job's entry in the batch's job table (one uniform
+buffer, carve/jobs.py, shaders/carve/job.glsl); the others are plain uniforms of a draw.
+`check_program` holds each program, when it is built, to its family: every plain uniform the
+program keeps must be a field of it (the others a compiler dropped from a variant are skipped
+when set), every field must be a uniform some shader declares or a member of the job table's
+entry, and the table's layout must be the driver's."""
 
 from __future__ import annotations
 
@@ -13,6 +16,7 @@ from typing import ClassVar
 
 import moderngl
 
+from dentdemo.carve.jobs import BLOCK, check_layout, entry_layout
 from dentdemo.errors import ShaderError
 from dentdemo.gl.shaders import library_uniforms
 
@@ -118,8 +122,9 @@ class Clip(_Group):
     u_map_size: IVec2
     #: Half width and height of the kept rectangle, camera metres.
     u_clip_half: Vec2 | None = None
-    #: Kept view depths (near, far), metres.
+    #: Kept view depths (near, far), metres: pass 4's slab, and pass 5's grown by its ring.
     u_slab: Vec2 | None = None
+    u_ring_slab: Vec2 | None = None
 
 
 @dataclass(frozen=True)
@@ -137,6 +142,18 @@ class Rect(_Group):
 
     u_rect: tuple[int, int, int, int]
     u_viewport: IVec2
+
+
+@dataclass(frozen=True)
+class Draw(_Group):
+    """job.glsl: the draw's entry in the job table's range bound."""
+
+    u_job: int
+
+
+#: The groups a job's entry in the batch's job table holds (carve/jobs.py): what every draw of
+#: a job (or of its body) shares. `Draw` and `Rect` stay plain uniforms, one or two a draw.
+ENTRY_GROUPS: tuple[type, ...] = (Camera, Pose, Swept, Advance, Clip, Gather)
 
 
 class _Family:
@@ -157,7 +174,7 @@ class _Family:
 class SurfaceUniforms(_Family):
     """Passes 2 and 3 (surface.vert or quad.vert; address.frag, peel.frag)."""
 
-    GROUPS: ClassVar[tuple[type, ...]] = (Camera, Pose, Swept, Advance)
+    GROUPS: ClassVar[tuple[type, ...]] = (Camera, Pose, Swept, Advance, Draw)
     camera: Camera
     pose: Pose
     swept: Swept | None = None
@@ -168,7 +185,16 @@ class SurfaceUniforms(_Family):
 class TexelUniforms(_Family):
     """Passes 4 and 5 (texel.vert, texel.geom or util/rect.vert; gather.frag, normals.frag)."""
 
-    GROUPS: ClassVar[tuple[type, ...]] = (Camera, Pose, Swept, Advance, Clip, Gather, Rect)
+    GROUPS: ClassVar[tuple[type, ...]] = (
+        Camera,
+        Pose,
+        Swept,
+        Advance,
+        Clip,
+        Gather,
+        Rect,
+        Draw,
+    )
     pose: Pose
     clip: Clip
     camera: Camera | None = None
@@ -179,9 +205,10 @@ class TexelUniforms(_Family):
 
 
 def family_names(family: type[_Family]) -> frozenset[str]:
-    """The uniform names of a family's groups; each must be one some shader file declares."""
+    """The uniform names of a family's groups; each must be one some shader file declares or a
+    member of the job table's entry."""
     names = frozenset(f.name for group in family.GROUPS for f in fields(group))
-    undeclared = names - library_uniforms()
+    undeclared = names - library_uniforms() - entry_layout().names()
     if undeclared:
         raise ShaderError(f"{family.__name__}: no shader declares {sorted(undeclared)}")
     return names
@@ -190,9 +217,25 @@ def family_names(family: type[_Family]) -> frozenset[str]:
 def check_program(
     prog: moderngl.Program, family: type[_Family], samplers: tuple[str, ...], where: str
 ) -> None:
-    """Hold a program just built to its family: each uniform it keeps is one of the family's
-    fields or one of the textures it samples (`samplers`), else ShaderError naming `where`."""
+    """Hold a program just built to its family: each plain uniform it keeps is one of the
+    family's fields or one of the textures it samples (`samplers`), and a job table it reads is
+    laid out as carve/jobs.py packs it (`check_layout`), else ShaderError naming `where`."""
     kept = {name for name in prog if isinstance(prog[name], moderngl.Uniform)}
     stray = kept - family_names(family) - set(samplers)
     if stray:
         raise ShaderError(f"{where}: uniforms {sorted(stray)} are not fields of {family.__name__}")
+    if isinstance(prog.get(BLOCK, None), moderngl.UniformBlock):
+        check_entry()
+        check_layout(prog, where)
+
+
+def check_entry() -> None:
+    """Hold the job table's entry (shaders/carve/job.glsl) to `ENTRY_GROUPS`: every member is a
+    field of one of the groups and every field a member, else ShaderError."""
+    names = entry_layout().names()
+    groups = {f.name for group in ENTRY_GROUPS for f in fields(group)}
+    if names != groups:
+        raise ShaderError(
+            f"carve/job.glsl: CarveEntry lacks {sorted(groups - names)} and has"
+            f" {sorted(names - groups)} beyond the parameter groups"
+        )

@@ -10,10 +10,12 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera
 from dentdemo.carve.constants import shader_defines
+from dentdemo.carve.jobs import job_table
 from dentdemo.carve.linear import column_scale, inverse3
 from dentdemo.carve.params import (
     Camera,
     Clip,
+    Draw,
     Pose,
     Quad,
     Swept,
@@ -76,6 +78,7 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
                 defines: dict[str, object] = {
                     key: int(value) for key, value in zip(names, variant, strict=True)
                 }
+                defines["RING"] = int(name == "normals")  # pass 5 clips to the ring's slab
                 if draw == RECT:  # under the same state as the triangles' draws
                     defines.update(RECT=1, CLIP_DISTANCES=CLIP_DISTANCES, **sphere_atlas_defines())
                 prog = program(
@@ -117,7 +120,10 @@ def rebuild_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None
     chart texels, then the gutter texels around the chart-border triangles. A hit's pass 5 is
     `Carver._normal_passes`, over its footprint."""
     passes = texture_space_passes(gl)
-    uniforms = TexelUniforms(model_uniforms(np.eye(4)), Clip(u_clip=False, u_map_size=maps.size))
+    entry = TexelUniforms(model_uniforms(np.eye(4)), Clip(u_clip=False, u_map_size=maps.size))
+    table = job_table(gl.cache, gl.ctx)
+    table.write([entry.values()])
+    uniforms = Draw(u_job=table.use(0)).values()
     border = np.nonzero(gpu_mesh.mesh.chart_border())[0]
     for kind, triangles in ((CHART, None), (GUTTER, border)):
         if triangles is not None and len(triangles) == 0:
@@ -128,7 +134,7 @@ def rebuild_normals(gl: GLContext, gpu_mesh: GpuMesh, maps: SurfaceMaps) -> None
             (0, 0, *maps.size),
             gpu_mesh.drawer(triangles, f"texels{kind}"),
             (maps.height, maps.mask),
-            uniforms.values(),
+            uniforms,
         )
 
 
@@ -150,9 +156,16 @@ def _vec3(v: NDArray[np.float64]) -> tuple[float, float, float]:
     return x, y, z
 
 
-def clip_uniforms(cam: CollisionCamera, maps: SurfaceMaps, slab: tuple[float, float]) -> Clip:
-    """Keep the texels whose surface projects inside the camera and lies in `slab` (view depth)."""
-    return Clip(u_clip=True, u_map_size=maps.size, u_clip_half=cam.half_extent, u_slab=slab)
+def clip_uniforms(cam: CollisionCamera, maps: SurfaceMaps) -> Clip:
+    """Keep the texels whose surface projects inside the camera and lies in its slab (view
+    depth; pass 5: in its slab grown by the ring, `ring_slab`)."""
+    return Clip(
+        u_clip=True,
+        u_map_size=maps.size,
+        u_clip_half=cam.half_extent,
+        u_slab=cam.slab,
+        u_ring_slab=cam.ring_slab,
+    )
 
 
 #: Keys of the carve's uniform dicts that pick a pass's variant (SWEPT: a bool, QUAD: a `Quad`)

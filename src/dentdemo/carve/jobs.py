@@ -1,0 +1,190 @@
+"""A batch's job table: every value the carve's passes take per direction of a hit and per body
+they draw (camera, pose, solid, press, clip box and slabs, gather bounds), one std140 entry each
+(shaders/carve/job.glsl), written into one uniform buffer once a batch. A draw names its entry
+with one integer (`u_job`); the buffer is bound by range, `JOB_ENTRIES` entries a range (what GL
+3.3's smallest uniform block holds), so a draw whose entry lies in another range binds that one.
+
+The entry's layout is read from job.glsl's struct and checked against the driver's own offsets
+when each program is built (`check_layout`); carve/params.py holds its members to the parameter
+groups the carver fills it from (`ENTRY_GROUPS`), so a member added on one side only is an error
+at build time, not a wrong value at draw time."""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import re
+import struct
+from collections.abc import Mapping, Sequence
+
+import moderngl
+
+from dentdemo.carve.constants import JOB_ENTRIES
+from dentdemo.errors import ShaderError
+from dentdemo.gl.library import gl_library
+from dentdemo.gl.shaders import shaders_dir
+
+#: The uniform block that holds the entries, its binding point and its array.
+BLOCK, BINDING, ARRAY = "CarveJobs", 0, "u_entries"
+
+#: (bytes, alignment, struct format) of each member type std140 lays out here: a mat3 is three
+#: columns of a vec4's stride; a bool four bytes (GL reads any non-zero as true).
+_TYPES: dict[str, tuple[int, int, str]] = {
+    "float": (4, 4, "f"),
+    "int": (4, 4, "i"),
+    "bool": (4, 4, "I"),
+    "vec2": (8, 8, "2f"),
+    "ivec2": (8, 8, "2i"),
+    "vec3": (12, 16, "3f"),
+    "mat3": (48, 16, "12s4x12s4x12s4x"),
+    "mat4": (64, 16, "64s"),
+}
+_STRUCT = re.compile(r"struct\s+CarveEntry\s*\{(.*?)\}\s*;", re.S)
+_MEMBER = re.compile(r"^\s*(\w+)\s+(\w+)\s*;", re.M)
+#: A value of each type where an entry leaves a member unset (it is read by no draw of it).
+_ZERO: dict[str, tuple[object, ...]] = {
+    "float": (0.0,),
+    "int": (0,),
+    "bool": (0,),
+    "vec2": (0.0, 0.0),
+    "ivec2": (0, 0),
+    "vec3": (0.0, 0.0, 0.0),
+    "mat3": (b"\0" * 12,) * 3,
+    "mat4": (b"\0" * 64,),
+}
+
+
+class EntryLayout:
+    """job.glsl's `CarveEntry`: members (uniform name as the passes read it, GLSL type, byte
+    offset) in order, and the array's stride (bytes, a multiple of 16)."""
+
+    def __init__(self, source: str) -> None:
+        found = _STRUCT.search(re.sub(r"//[^\n]*", "", source))
+        if found is None:
+            raise ShaderError("carve/job.glsl: no struct CarveEntry")
+        offset, members = 0, []
+        for kind, name in _MEMBER.findall(found.group(1)):
+            if kind not in _TYPES:
+                raise ShaderError(f"carve/job.glsl: CarveEntry.{name} has type {kind!r}")
+            size, align, _ = _TYPES[kind]
+            offset = -(-offset // align) * align
+            members.append((f"u_{name}", kind, offset))
+            offset += size
+        self.members: tuple[tuple[str, str, int], ...] = tuple(members)
+        self.stride = -(-offset // 16) * 16
+        fmt, end = "<", 0
+        for _, kind, at in members:
+            fmt += f"{at - end}x" + _TYPES[kind][2]
+            end = at + _TYPES[kind][0]
+        self._struct = struct.Struct(fmt + f"{self.stride - end}x")
+
+    def names(self) -> frozenset[str]:
+        return frozenset(name for name, _, _ in self.members)
+
+    def pack(self, values: Mapping[str, object]) -> bytes:
+        """One entry's bytes from uniform values by name (as the parameter groups give them:
+        vectors as sequences, matrices as float32 column-major bytes, 64 for a mat4 and 36 for
+        a mat3); members it does not name are zero."""
+        flat: list[object] = []
+        for name, kind, _ in self.members:
+            value = values.get(name)
+            if value is None:
+                flat += _ZERO[kind]
+            elif kind == "mat3":
+                if not isinstance(value, bytes) or len(value) != 36:
+                    raise TypeError(f"{name}: a mat3 as 36 bytes, column-major float32")
+                flat += (value[0:12], value[12:24], value[24:36])
+            elif kind in ("vec2", "ivec2", "vec3"):
+                flat += value  # type: ignore[arg-type]  # a vector: a sequence
+            elif kind == "bool":
+                flat.append(1 if value else 0)
+            else:
+                flat.append(value)
+        return self._struct.pack(*flat)
+
+
+@functools.cache
+def entry_layout() -> EntryLayout:
+    """The entry of shaders/carve/job.glsl."""
+    return EntryLayout((shaders_dir() / "carve/job.glsl").read_text(encoding="utf-8"))
+
+
+_GL_UNIFORM_OFFSET = 0x8A3B
+_GL_INVALID_INDEX = 0xFFFFFFFF
+
+
+def check_layout(prog: moderngl.Program, where: str) -> None:
+    """Hold a program that reads the job table to `entry_layout()`: each member's offset and the
+    array's stride as the driver laid them out (std140 makes every member active), else
+    ShaderError naming `where`. One query a program, when it is built."""
+    layout = entry_layout()
+    names = [f"{ARRAY}[0].{name[2:]}" for name, _, _ in layout.members] + [f"{ARRAY}[1].model"]
+    gl = gl_library()
+    c_names = (ctypes.c_char_p * len(names))(*(n.encode() for n in names))
+    indices = (ctypes.c_uint * len(names))()
+    gl.glGetUniformIndices(prog.glo, len(names), c_names, indices)
+    if any(i == _GL_INVALID_INDEX for i in indices):
+        missing = [n for n, i in zip(names, indices, strict=True) if i == _GL_INVALID_INDEX]
+        raise ShaderError(f"{where}: the job table has no {missing[0]!r}")
+    offsets = (ctypes.c_int * len(names))()
+    gl.glGetActiveUniformsiv(prog.glo, len(names), indices, _GL_UNIFORM_OFFSET, offsets)
+    ours = [at for _, _, at in layout.members] + [layout.stride]
+    for name, theirs, mine in zip(names, offsets, ours, strict=True):
+        if theirs != mine:
+            raise ShaderError(f"{where}: {name} lies at byte {theirs}, carve/jobs.py packs {mine}")
+    block = prog[BLOCK]
+    if isinstance(block, moderngl.UniformBlock):
+        block.binding = BINDING
+
+
+class JobTable:
+    """The uniform buffer of a batch's entries: `write` them all at once (fresh storage each
+    time, so no queued draw that reads the last batch's makes the driver wait), then `use` an
+    entry before each draw that reads it: it binds the entry's range when another is bound
+    and gives the index within it, for `u_job`."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self._ctx = ctx
+        layout = entry_layout()
+        align = max(int(ctx.info.get("GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT", 256)), 16)
+        #: Bytes of one range, and from one range's start to the next's (aligned).
+        self._range = JOB_ENTRIES * layout.stride
+        self._step = -(-self._range // align) * align
+        self.buffer = ctx.buffer(reserve=self._step)
+        self._bound = -1  # the range bound at BINDING since `write`, or -1
+
+    def write(self, entries: Sequence[Mapping[str, object]]) -> None:
+        """Every entry of a batch, in order (entry k is `use(k)`'s)."""
+        layout, pad = entry_layout(), b"\0" * (self._step - self._range)
+        chunks = []
+        for start in range(0, max(len(entries), 1), JOB_ENTRIES):
+            part = b"".join(layout.pack(e) for e in entries[start : start + JOB_ENTRIES])
+            chunks.append(part + b"\0" * (self._range - len(part)) + pad)
+        data = b"".join(chunks)
+        self.buffer.orphan(max(len(data), self.buffer.size))
+        self.buffer.write(data)
+        self._bound = -1
+
+    def use(self, entry: int) -> int:
+        """Bind the range that holds `entry` (unless bound) and return its index there."""
+        chunk, index = divmod(entry, JOB_ENTRIES)
+        if chunk != self._bound:
+            self.buffer.bind_to_uniform_block(BINDING, offset=chunk * self._step, size=self._range)
+            self._bound = chunk
+        return index
+
+    def forget(self) -> None:
+        """Another buffer may be bound at BINDING now (the host's, given back): bind again."""
+        self._bound = -1
+
+    def release(self) -> None:
+        self.buffer.release()
+
+
+def job_table(gl_cache: dict, ctx: moderngl.Context) -> JobTable:
+    """The context's job table (one, shared by its carvers and the map-wide normal rebuild:
+    each writes its entries before it draws)."""
+    key = "carve:job-table"
+    if key not in gl_cache:
+        gl_cache[key] = JobTable(ctx)
+    return gl_cache[key]
