@@ -69,6 +69,8 @@ def test_the_editor_shows_the_validators_ranges():
         "roughness": "[0.02, 1]",
         "coat_thickness_m": "[0, 0.01]",
         "coat_metalness": "[0, 1]",
+        "coat_wear_coefficient": "[0, 1]",
+        "coat_hardness_Pa": "[1000, 3e+11]",
         "coat_roughness": "[0.02, 1]",
     }
     assert {k.key: k.range_text() for k in MATERIAL_NUMBERS} == documented

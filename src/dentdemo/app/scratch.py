@@ -36,6 +36,7 @@ a box's, the ball's circular segment under the face's chord, clipped to the face
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -94,13 +95,20 @@ class Drag:
 class Groove:
     """The groove Archard's law asks for along a straight path (metres, m^2, m^3)."""
 
+    #: The groove's volume along the path, A(d) * distance: K F s / H with the target's K and H
+    #: (through a coat, the coat's part with the coat's and the metal's with the metal's).
     archard_volume: float
+    #: Its cross-section A(d).
     area: float
     depth: float
     #: Half its width at the surface.
     half_width: float
     #: The tool's print at the two ends, which the swept tool adds to A(d) * distance.
     ends_volume: float
+    #: The part of the cross-section within the coat, m^2 (all of it without a coat), and the
+    #: coat's thickness, m (0: none).
+    coat_area: float = 0.0
+    coat: float = 0.0
 
     def predicted_volume(self, distance: float) -> float:
         return self.area * distance + self.ends_volume
@@ -111,40 +119,67 @@ def groove_for(
 ) -> Groove:
     """The groove `tool` wears into a `target` body: V = K F s / H with the target's own K and H,
     spread over the path so that A(d) * distance = V (on a sphere target, A the lens a sphere
-    tool's circle cuts from the ball's; the ball's curvature across the path narrows it)."""
+    tool's circle cuts from the ball's; the ball's curvature across the path narrows it). A
+    coat with a wear law of its own takes its part of the work at its own rate
+    (`wear.coated_depth`)."""
     volume = wear.archard_volume(
         target.wear_coefficient, drag.load_n, drag.slide_m, target.hardness
     )
     area = volume / drag.distance_m
+    coat = target.appearance.coat_thickness
+    ratio = target.coat_wear_ratio()
+
+    def groove(
+        area_at: Callable[[float], float],
+        plain: Callable[[float], float],
+        half: Callable[[float], float],
+        ends: Callable[[float], float],
+    ) -> Groove:
+        depth = (
+            plain(area)
+            if coat <= 0 or ratio == 1.0
+            else wear.coated_depth(area_at, area, coat, ratio)
+        )
+        cut = area_at(depth)
+        within = cut - area_at(max(depth - coat, 0.0)) if coat > 0 else cut
+        return Groove(cut * drag.distance_m, cut, depth, half(depth), ends(depth), within, coat)
+
     match tool, target_shape:
         case Sphere(radius=r), Sphere(radius=big):
-            depth = wear.lens_groove_depth(big, r, area)
-            return Groove(
-                volume,
-                area,
-                depth,
-                _lens_half_width(big, r, depth),
-                wear.ball_lens_volume(big, r, depth),
+            return groove(
+                lambda d: wear.lens_area(big, r, d),
+                lambda a: wear.lens_groove_depth(big, r, a),
+                lambda d: _lens_half_width(big, r, d),
+                lambda d: wear.ball_lens_volume(big, r, d),
             )
         case Box(size=(x, _, z)), Sphere(radius=big):
-            depth = wear.strip_groove_depth(big, x, area)
-            half = min(x / 2, wear.segment_half_width(big, depth))
-            return Groove(volume, area, depth, half, flat_print_on_ball(big, x, z, depth))
+            return groove(
+                lambda d: wear.strip_area(big, x, d),
+                lambda a: wear.strip_groove_depth(big, x, a),
+                lambda d: min(x / 2, wear.segment_half_width(big, d)),
+                lambda d: flat_print_on_ball(big, x, z, d),
+            )
         case _, Sphere():
             raise DentdemoError("--tool: a sphere target is scratched with a sphere or a box tool")
     match tool:
         case Sphere(radius=r) | Capsule(radius=r) | Cylinder(radius=r):
-            depth = wear.sphere_groove_depth(r, area)
-            ends = area * _extent(tool)
-            if not isinstance(tool, Cylinder):
-                ends += wear.cap_volume(r, depth)
-            return Groove(volume, area, depth, wear.segment_half_width(r, depth), ends)
-        case Box(size=(x, _, z)):
-            depth = wear.box_groove_depth(x, area)
-            return Groove(volume, area, depth, x / 2, x * z * depth)
-        case Plate(side=side):
-            depth = wear.box_groove_depth(side, area)
-            return Groove(volume, area, depth, side / 2, side * side * depth)
+            capped = not isinstance(tool, Cylinder)
+            return groove(
+                lambda d: wear.segment_area(r, d),
+                lambda a: wear.sphere_groove_depth(r, a),
+                lambda d: wear.segment_half_width(r, d),
+                lambda d: (
+                    wear.segment_area(r, d) * _extent(tool)
+                    + (wear.cap_volume(r, d) if capped else 0.0)
+                ),
+            )
+        case Box(size=(width, _, _)) | Plate(side=width):
+            return groove(
+                lambda d: width * max(d, 0.0),
+                lambda a: wear.box_groove_depth(width, a),
+                lambda d: width / 2,
+                lambda d: width * _extent(tool) * d,
+            )
     raise DentdemoError(f"--tool: a scratch takes no {type(tool).__name__} tool")
 
 
@@ -496,6 +531,11 @@ def measure(height: NDArray[np.float32], setup: ScratchSetup) -> dict:
         "cross_section_m2": groove.area,
         "grooved_texels": int((height < GROOVED).sum()),
     }
+    if groove.coat > 0:  # the coat's part and the metal's along the path, and the bare texels
+        result["coat_thickness_m"] = groove.coat
+        result["coat_volume_m3"] = groove.coat_area * drag.distance_m
+        result["metal_volume_m3"] = (groove.area - groove.coat_area) * drag.distance_m
+        result["bare_metal_texels"] = int((height < -groove.coat).sum())
     if groove.depth <= 0 or not isinstance(setup.target_shape, Plate):
         return result  # a cube's texels lie in its atlas's cells: its volume alone
     along, off = _path_coordinates(height.shape, setup)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -104,6 +105,8 @@ class Groove:
     track: _Track
     depth: float
     points: NDArray[np.float64] | None = None
+    #: The worn body's coat, m thick, and how much faster its material wears than the coat.
+    coat: tuple[float, float] = (0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -282,20 +285,22 @@ class WearTracker:
             return
         shape = tool.spec.shape
         area = track.volume / length
+        material = sim.bodies[key[0]].spec.material
+        coat = (material.appearance.coat_thickness, material.coat_wear_ratio())
         if isinstance(shape, Sphere):
-            depth = wear.sphere_groove_depth(shape.radius, area)
-            groove = Groove(key[0], key[1], shape.radius, track, depth)
+            depth = _sphere_depth(shape.radius, area, coat)
+            groove = Groove(key[0], key[1], shape.radius, track, depth, coat=coat)
         elif isinstance(shape, Box):
             corners = _corners(sim, key[0], key[1], shape)
-            depth = wear.section_depth(_section(corners, track), area)
+            depth = _section_depth(_section(corners, track), area, coat)
             points = _swept_box_points(corners, track)
-            groove = Groove(key[0], key[1], 0.0, track, depth, points)
+            groove = Groove(key[0], key[1], 0.0, track, depth, points, coat)
         else:
-            swept = _prism(sim, key[0], key[1], track, area)
+            swept = _prism(sim, key[0], key[1], track, area, coat)
             if swept is None:
                 return
             depth, points = swept
-            groove = Groove(key[0], key[1], 0.0, track, depth, points)
+            groove = Groove(key[0], key[1], 0.0, track, depth, points, coat)
         if depth >= VISIBLE_DEPTH:
             self.pending.append(groove)
 
@@ -330,7 +335,7 @@ class WearTracker:
         length = float(np.linalg.norm(along))
         direction = along / length
         rounded = max(LENGTH_STEP, round(length / LENGTH_STEP) * LENGTH_STEP)
-        depth = wear.sphere_groove_depth(r, track.volume / rounded)
+        depth = _sphere_depth(r, track.volume / rounded, groove.coat)
         local = np.eye(4)
         local[:3, :3] = np.column_stack([np.cross(n, direction), n, direction])
         local[:3, 3] = (start + end) / 2 + n * r
@@ -418,8 +423,31 @@ def _surface(sim: Simulation, worn: str, tool: str, normal: NDArray[np.float64])
     return (relative[:3, :3] @ support(shape, down) + relative[:3, 3])[None, :]
 
 
+def _sphere_depth(radius: float, area: float, coat: tuple[float, float]) -> float:
+    """A sphere's groove depth for the cross-section `area` its material alone would lose, m:
+    through a coat of its own law, `wear.coated_depth` (docs/carve.md, "Grooves through a
+    coat")."""
+    if coat[0] <= 0.0 or coat[1] == 1.0:
+        return wear.sphere_groove_depth(radius, area)
+    return wear.coated_depth(lambda d: wear.segment_area(radius, d), area, *coat)
+
+
+def _section_depth(
+    section: list[tuple[float, float]], area: float, coat: tuple[float, float]
+) -> float:
+    """A convex cross-section's groove depth, as `_sphere_depth`, m."""
+    if coat[0] <= 0.0 or coat[1] == 1.0:
+        return wear.section_depth(section, area)
+    return wear.coated_depth(lambda d: wear.section_area_beyond(section, d), area, *coat)
+
+
 def _prism(
-    sim: Simulation, worn: str, tool: str, track: _Track, area: float
+    sim: Simulation,
+    worn: str,
+    tool: str,
+    track: _Track,
+    area: float,
+    coat: tuple[float, float],
 ) -> tuple[float, NDArray[np.float64]] | None:
     """A capsule's, a cylinder's or a mesh patch's groove segment: its depth (the cross-section
     `area`, m^2) and the prism's 16 points (the worn body's frame, touching the contact's plane):
@@ -437,11 +465,13 @@ def _prism(
     if isinstance(shape, MeshFile):
         found = _patch(sim.bodies[tool].mesh, relative, track, across, along)
     else:
-        found = _profile(shape, relative, area, n, across, along)
+        found = _profile(
+            shape, relative, lambda ring: _section_depth(ring, area, coat), n, across, along
+        )
     if found is None:
         return None
     ring, lowest, (back, front) = found
-    depth = wear.section_depth(ring, area)
+    depth = _section_depth(ring, area, coat)
     ends = [((back if track.fresh else front) - length, ring), (front, ring)]
     points = np.array(
         [x * across + (lowest + y) * n + s * along for s, r in ends for x, y in r], dtype=float
@@ -475,15 +505,16 @@ def _ring(flat: NDArray[np.float64], lift: float) -> tuple[list[tuple[float, flo
 def _profile(
     shape: Shape,
     relative: NDArray[np.float64],
-    area: float,
+    depth_of: Callable[[list[tuple[float, float]]], float],
     n: NDArray[np.float64],
     across: NDArray[np.float64],
     along: NDArray[np.float64],
 ) -> tuple[list[tuple[float, float]], float, tuple[float, float]] | None:
     """A built-in tool's cross-section across the path: the support points of FAN directions
-    fanned across it about -n, in the first cone whose profile stands twice the groove's depth
-    above the lowest point; with the height of that point along n and the print's extent along
-    the path (the support points of the cone's directions fore and aft), m."""
+    fanned across it about -n, in the cone whose profile stands RISE times the groove's depth
+    (`depth_of` a cross-section) above the lowest point; with the height of that point along n
+    and the print's extent along the path (the support points of the cone's directions fore and
+    aft), m."""
     rotation, centre = relative[:3, :3], relative[:3, 3]
 
     def points(directions: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -503,7 +534,7 @@ def _profile(
         if found is None:
             continue
         corners, rise = found
-        depth = wear.section_depth(corners, area)
+        depth = depth_of(corners)
         if rise == 0.0 or depth * RISE <= rise or cone == CONES[-1]:
             break
     else:
@@ -515,7 +546,7 @@ def _profile(
             if found is None:
                 return None
             corners, rise = found
-            depth = wear.section_depth(corners, area)
+            depth = depth_of(corners)
     return corners, lowest, extent
 
 

@@ -50,4 +50,12 @@ def run(args: argparse.Namespace) -> int:
             f"{m.k:10.3g}{tag}{m.Y:7.3g}"
         )
     print("(* k set by the preset; otherwise k = k_per_compliance * (1/P - 1/E))")
+    for name in library.names():
+        m = library.materials[name]
+        if m.appearance.coat_thickness > 0:
+            own = "" if m.coat_wear_explicit or m.coat_hardness_explicit else " (the material's)"
+            print(
+                f"{name}: a coat {m.appearance.coat_thickness * 1e3:.3g} mm thick, wearing with "
+                f"K {m.coat_wear_coefficient:.2g}, H {m.coat_hardness / 1e9:.3g} GPa{own}"
+            )
     return 0

@@ -97,6 +97,23 @@ class Material:
     hardness: float = 1e9
     #: True when the preset set hardness_Pa; otherwise it is TABOR_FACTOR * yield_stress.
     hardness_explicit: bool = False
+    #: The coat's own Archard K (dimensionless) and hardness (Pa), while a groove is within it;
+    #: when the preset sets none, the material's own (the `_explicit` flags say which).
+    coat_wear_coefficient: float = 0.0
+    coat_hardness: float = 1e9
+    coat_wear_explicit: bool = False
+    coat_hardness_explicit: bool = False
+
+    def coat_wear_ratio(self) -> float:
+        """How much more the material wears than its coat for the same work, (K / H) / (K_coat /
+        H_coat): 1 without a coat of its own law; inf for a coat that never wears through."""
+        if self.appearance.coat_thickness <= 0.0:
+            return 1.0
+        base = self.wear_coefficient / self.hardness
+        coat = self.coat_wear_coefficient / self.coat_hardness
+        if coat <= 0.0:
+            return math.inf if base > 0.0 else 1.0
+        return base / coat
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -111,6 +128,8 @@ class Material:
             "wear_coefficient": self.wear_coefficient,
             "hardness_Pa": self.hardness,
             "hardness_explicit": self.hardness_explicit,
+            "coat_wear_coefficient": self.coat_wear_coefficient,
+            "coat_hardness_Pa": self.coat_hardness,
             "max_dent_depth_m": self.max_dent_depth,
             "k_m_per_Ns": self.k,
             "k_explicit": self.k_explicit,
@@ -267,6 +286,10 @@ def material_table(material: Material) -> dict[str, Any]:
     table["wear_coefficient"] = material.wear_coefficient
     if material.hardness_explicit:
         table["hardness_Pa"] = material.hardness
+    if material.coat_wear_explicit:
+        table["coat_wear_coefficient"] = material.coat_wear_coefficient
+    if material.coat_hardness_explicit:
+        table["coat_hardness_Pa"] = material.coat_hardness
     table.update(
         source=material.source,
         base_colour=list(look.base_colour),
@@ -304,6 +327,10 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
             f"{k_range.explained()}",
         )
     hardness, hardness_explicit = _hardness(reader, number["yield_stress_Pa"])
+    coat_k, coat_h = (
+        NUMBER_KEYS[key].read(reader) if reader.has(key) else None
+        for key in ("coat_wear_coefficient", "coat_hardness_Pa")
+    )
     source_text = reader.string("source", "")
     default = Appearance()
     colour = _colour(reader, "base_colour", default.base_colour)
@@ -336,6 +363,10 @@ def _parse_material(source: str, name: str, table: Any, calibration: Calibration
         wear_coefficient=number["wear_coefficient"],
         hardness=hardness,
         hardness_explicit=hardness_explicit,
+        coat_wear_coefficient=number["wear_coefficient"] if coat_k is None else coat_k,
+        coat_hardness=hardness if coat_h is None else coat_h,
+        coat_wear_explicit=coat_k is not None,
+        coat_hardness_explicit=coat_h is not None,
     )
 
 

@@ -189,6 +189,26 @@ MATERIAL_NUMBERS: tuple[NumberKey, ...] = (
     NumberKey(
         "coat_metalness", "1", low=0.0, high=1.0, default=0.0, why="0 dielectric (paint), 1 metal"
     ),
+    # The coat's own wear (Archard's K and H, while a groove is within the coat); absent: the
+    # material's own wear_coefficient and hardness.
+    NumberKey(
+        "coat_wear_coefficient",
+        "1",
+        low=0.0,
+        high=1.0,
+        optional=True,
+        attribute="coat_wear_coefficient",
+        why="as wear_coefficient's; acrylic on steel ~7e-6, 0: the coat never wears through",
+    ),
+    NumberKey(
+        "coat_hardness_Pa",
+        "Pa",
+        low=1e3,
+        high=3e11,
+        optional=True,
+        attribute="coat_hardness",
+        why="as hardness_Pa's; paints and clear coats ~1e8 to 5e8 Pa",
+    ),
     NumberKey(
         "coat_roughness",
         "1",

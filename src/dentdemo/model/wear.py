@@ -204,3 +204,43 @@ def strip_groove_depth(radius: float, width: float, area: float) -> float:
     if area <= 0.0:
         return 0.0
     return _bisect(lambda d: strip_area(radius, width, d), area, radius)
+
+
+def section_area_beyond(section: list[tuple[float, float]], depth: float) -> float:
+    """`section_area`, and past the section's top its full width on down (a tool pressed deeper
+    than its own height sweeps walls), m^2."""
+    top = max(y for _, y in section)
+    if depth <= top:
+        return section_area(section, depth)
+    width = max(x for x, _ in section) - min(x for x, _ in section)
+    return section_area(section, top) + (depth - top) * width
+
+
+#: Doublings of the bracket for a coated groove's depth, from 1 nm: past 2^80 nm nothing is left.
+BRACKET_DOUBLINGS = 80
+
+
+def coated_depth(
+    area_at: Callable[[float], float], area: float, coat: float, ratio: float
+) -> float:
+    """The depth of a groove through a coat `coat` metres thick whose material wears `ratio`
+    times more than the coat for the same work ((K/H) / (K_coat/H_coat)), m. `area` is the
+    cross-section the material alone would lose for the groove's work (Archard with its own K
+    and H: the sandbox's and the scratch's volume over the path); the groove's cross-section
+    below depth d, `area_at(d)`, splits into the coat's band, A(d) - A(d - t), and the
+    material's below it, A(d - t); the work removes the coat at 1/ratio of the rate, so d solves
+    ratio (A(d) - A(d - t)) + A(d - t) = area (bisection: the left side grows with d). Without a
+    coat (or ratio 1) the material's own depth; a coat that never wears (ratio inf), none."""
+    if area <= 0.0 or math.isinf(ratio):
+        return 0.0
+
+    def equivalent(d: float) -> float:
+        below = area_at(max(d - coat, 0.0))
+        return ratio * (area_at(d) - below) + below
+
+    hi = 1e-9
+    for _ in range(BRACKET_DOUBLINGS):
+        if equivalent(hi) >= area:
+            break
+        hi *= 2.0
+    return _bisect(equivalent, area, hi)
