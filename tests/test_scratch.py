@@ -323,6 +323,10 @@ def test_every_shipped_preset_sets_its_wear_coefficient_and_hardness():
     assert lib.get("aluminium").hardness == pytest.approx(107 * 9.80665e6, rel=0.01)
     listed = json.loads(dentdemo("materials", "--json").stdout)["materials"]
     assert {m["name"]: m["wear_coefficient"] for m in listed}["steel"] == 7e-3
+    # The painted preset's coat wears by its own sourced K and H (Perspex: 20 kgf/mm^2).
+    painted = {m["name"]: m for m in listed}["painted_steel"]
+    assert painted["coat_wear_coefficient"] == 7e-6
+    assert painted["coat_hardness_Pa"] == pytest.approx(20 * 9.80665e6, rel=1e-3)
 
 
 def test_wear_keys_are_validated_and_hardness_defaults_to_three_yields(tmp_toml):
@@ -338,11 +342,18 @@ def test_wear_keys_are_validated_and_hardness_defaults_to_three_yields(tmp_toml)
     assert plain.wear_coefficient == 0.0
     again = parse_material("t", "plain", material_table(plain), lib.calibration)
     assert again == plain
+    # A coat without a wear law of its own wears as the material: ratio 1.
+    coated = load_materials([tmp_toml(steel_like("c", 0.01, "coat_thickness_m = 1e-4\n"))])
+    assert (
+        coated.get("c").coat_hardness == plain.hardness and coated.get("c").coat_wear_ratio() == 1
+    )
     for extra, key in (
         ("wear_coefficient = -1e-3\n", "wear_coefficient"),
         ("wear_coefficient = 1.5\n", "wear_coefficient"),
         ("hardness_Pa = 0\n", "hardness_Pa"),
         ('hardness_Pa = "hard"\n', "hardness_Pa"),
+        ("coat_wear_coefficient = 1.5\n", "coat_wear_coefficient"),
+        ("coat_hardness_Pa = 0\n", "coat_hardness_Pa"),
     ):
         path = tmp_toml(steel_like("worn", 0.01, extra))
         with pytest.raises(ConfigError, match=f"key '{key}'"):
