@@ -128,27 +128,47 @@ float exit_bound(vec3 rel, vec3 n, float depth, float stretch) {
 }
 
 // The inward distance a (metres) at which the texel's point leaves the swept solid. `f0` < 0: how
-// far inside it the point itself lies (beyond's measure). Every distance the search looks at is
-// fixed before it looks at the tool: a march outwards by factors of two from EXIT_FIRST_METRES
-// brackets the first exit between a point inside (lo) and one out of the solid (hi) in at most
-// EXIT_MARCH look-ups, the last at exit_bound; EXIT_STEPS bisections narrow the bracket, and the
-// root of the line through its ends is the answer. So a smaller tool never answers farther
-// (monotone): the same press again, whose tool the first press dented (both directions read the
-// heights from before the hit: the first tool less its dent), writes no texel deeper, and MIN
-// keeps every bit. (False position from the view-line estimate looked at distances that depend
-// on the tool, and its repeat deepened a mesh by up to a few micrometres.)
-float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float f0) {
+// far inside it the point itself lies (beyond's measure); `start` > 0 (metres), where the search
+// first looks: the press's advance. Every distance the search looks at is fixed before it looks
+// at the tool: from `start` (or the bound exit_bound, if nearer), a march by factors of two,
+// outwards while the point is inside, inwards while it is out (not below EXIT_FIRST_METRES, then
+// 0 is the inner end), brackets an exit between a point inside (lo) and one out of the solid
+// (hi) in at most EXIT_MARCH look-ups, the last outwards at exit_bound; EXIT_STEPS bisections
+// narrow the bracket, and the root of the line through its ends is the answer. So a smaller tool
+// never answers farther (monotone): each look-up that finds it inside finds the larger tool
+// inside too, so its bracket is the same or nearer. The same press again, whose tool the first
+// press dented (both directions read the heights from before the hit: the first tool less its
+// dent), writes no texel deeper, and MIN keeps every bit. (False position from the view-line
+// estimate looked at distances that depend on the tool, and its repeat deepened a mesh by up to
+// a few micrometres.) Starting at the advance rather than at EXIT_FIRST_METRES saves most of
+// the march: most texels of a dent leave the solid within a factor of two of it.
+float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float f0, float start) {
     float far = exit_bound(rel, n, depth, stretch);
     float lo = 0.0, f_lo = f0;
-    float hi = min(EXIT_FIRST_METRES, far), f_hi;
+    float hi = min(start, far), f_hi;
     bool on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
-    for (int k = 0; k < EXIT_MARCH && on_hi && f_hi < 0.0; ++k) {  // still inside: look further
-        lo = hi;
-        f_lo = f_hi;
-        hi = k == EXIT_MARCH - 1 ? far : min(2.0 * hi, far);
-        on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
+    if (on_hi && f_hi < 0.0) {
+        for (int k = 0; k < EXIT_MARCH && on_hi && f_hi < 0.0; ++k) {  // inside: look further
+            lo = hi;
+            f_lo = f_hi;
+            hi = k == EXIT_MARCH - 1 ? far : min(2.0 * hi, far);
+            on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
+        }
+        if (on_hi && f_hi < 0.0) return hi;  // inside at the bound (the depth range misses it)
+    } else {
+        for (int k = 0; k < EXIT_MARCH && hi > EXIT_FIRST_METRES; ++k) {  // out: look nearer
+            float a = 0.5 * hi, f;
+            bool on = beyond(rel, n, depth, stretch, a, f);
+            if (on && f < 0.0) {
+                lo = a;
+                f_lo = f;
+                break;
+            }
+            hi = a;
+            f_hi = f;
+            on_hi = on;
+        }
     }
-    if (on_hi && f_hi < 0.0) return hi;  // inside at the bound (the depth range misses the tool)
     for (int k = 0; k < EXIT_STEPS; ++k) {
         float a = 0.5 * (lo + hi), f;
         bool on = beyond(rel, n, depth, stretch, a, f);

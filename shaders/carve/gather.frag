@@ -106,7 +106,7 @@ void main() {
 #if EXIT  // some normal of the footprint is not the press direction (a variant: a software
           // rasteriser runs an if's body for every fragment, so square-on presses leave it out)
     if (inward > 0.0 && cos_view < 1.0 - 1e-6)
-        inward = normal_exit(rel, n, depth, stretch, max(depth - tool, -thickness));
+        inward = normal_exit(rel, n, depth, stretch, max(depth - tool, -thickness), u_advance);
 #endif
     float h = -inward;
     if (!(h < u_ceiling)) discard;  // the tool does not reach this texel

@@ -16,14 +16,14 @@ NO_FRONT = 1e30
 FRONT_TOLERANCE = 1e-6
 #: Pass 4 finds how far a texel's point moves inwards along its normal to leave the tool's swept
 #: solid at distances fixed before it looks at the tool (so a smaller tool never answers farther:
-#: the same press again writes the same bits): a march outwards by factors of two from
-#: EXIT_FIRST_METRES brackets the first exit in at most EXIT_MARCH look-ups of the tool's extent
-#: (the last at a distance where the point is out for certain; 2.6 m before that), then
-#: EXIT_STEPS bisections narrow it (to 1/65536) and the line through its ends gives the root. A
-#: press along the surface normal needs none.
+#: the same press again writes the same bits): a march by factors of two from the press's advance
+#: (outwards while the point is inside, inwards down to EXIT_FIRST_METRES while it is out)
+#: brackets an exit in at most EXIT_MARCH look-ups of the tool's extent (outwards, the last at a
+#: distance where the point is out for certain), then EXIT_STEPS bisections narrow it (to 1/4096)
+#: and the line through its ends gives the root. A press along the surface normal needs none.
 EXIT_FIRST_METRES = 1e-5
 EXIT_MARCH = 19
-EXIT_STEPS = 16
+EXIT_STEPS = 12
 #: Pass 4's thickness of the tool (back minus front, metres along the view) where all four camera
 #: pixels around a position see it, or where a pixel saw no front face: well inside its outline.
 INSIDE_OUTLINE = 1e30

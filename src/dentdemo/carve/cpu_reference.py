@@ -234,6 +234,7 @@ def gather(
                 depth[moving],
                 stretch[moving],
                 np.maximum(depth - tool_depth, -thickness)[moving],
+                advance,
             )
         h = -inward
     seen &= h < ceiling
@@ -265,11 +266,14 @@ def _normal_exit(
     depth: Array,
     stretch: Array,
     f0: Array,
+    start: float,
 ) -> Array:
-    """exit.glsl's normal_exit for many texels at once: a march outwards by factors of two from
-    EXIT_FIRST_METRES brackets the first exit between a point inside the swept solid (lo) and
-    one out of it (hi), bisection narrows the bracket, and the line through its ends gives the
-    root; metres inwards. Every distance looked at is fixed before the tool is (monotone in the
+    """exit.glsl's normal_exit for many texels at once: from `start` (the press's advance,
+    metres, or the bound where the point is out for certain, if nearer) a march by factors of
+    two, outwards while the point is inside the swept solid and inwards (not below
+    EXIT_FIRST_METRES) while it is out, brackets an exit between a point inside (lo) and one out
+    of it (hi); bisection narrows the bracket, and the line through its ends gives the root;
+    metres inwards. Every distance looked at is fixed before the tool is (monotone in the
     tool). `f0`: how far inside the solid each point itself lies (metres along the view, < 0)."""
 
     def beyond(a: Array, which: NDArray[np.int64]) -> tuple[Array, NDArray[np.bool_]]:
@@ -278,9 +282,10 @@ def _normal_exit(
 
     far = _exit_bound(cam, rel, n, depth, stretch)
     every = np.arange(len(f0))
-    lo, f_lo, hi = np.zeros_like(f0), f0.copy(), np.minimum(EXIT_FIRST_METRES, far)
+    lo, f_lo, hi = np.zeros_like(f0), f0.copy(), np.minimum(start, far)
     f_hi, on_hi = beyond(hi, every)
-    for k in range(EXIT_MARCH):  # still inside: look further
+    down = np.flatnonzero(~(on_hi & (f_hi < 0.0)))
+    for k in range(EXIT_MARCH):  # inside: look further
         i = np.flatnonzero(on_hi & (f_hi < 0.0))
         if len(i) == 0:
             break
@@ -288,6 +293,17 @@ def _normal_exit(
         lo[i], f_lo[i], hi[i] = hi[i], f_hi[i], step
         f_hi[i], on_hi[i] = beyond(step, i)
     stuck = on_hi & (f_hi < 0.0)  # inside at the bound (the depth range misses the tool)
+    for _ in range(EXIT_MARCH):  # out at the start: look nearer
+        down = down[hi[down] > EXIT_FIRST_METRES]
+        if len(down) == 0:
+            break
+        a = 0.5 * hi[down]
+        f, on = beyond(a, down)
+        inside = on & (f < 0.0)
+        found, out = down[inside], ~inside
+        lo[found], f_lo[found] = a[inside], f[inside]
+        hi[down[out]], f_hi[down[out]], on_hi[down[out]] = a[out], f[out], on[out]
+        down = down[out]
     for _ in range(EXIT_STEPS):
         mid = 0.5 * (lo + hi)
         f, on = beyond(mid, every)
