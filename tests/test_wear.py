@@ -203,17 +203,34 @@ def test_a_scratch_is_undone_with_its_batch_and_bounded_by_the_map(gl, tmp_path)
         sim.close()
 
 
-def test_save_and_resume_mid_slide_is_bit_identical(gl, tmp_path):
-    """A ball skidding over segment boundaries, saved part-way through a segment and resumed in
-    a new simulation: the plate's heights after as many steps are the same bits as one run's,
-    and so is the volume worn (the slide's unfinished segment travels in the state)."""
+#: A capsule lying along x on the plate, id "ball" (a prism tool's slide).
+CAPSULE = (
+    '[[body]]\nid = "ball"\nshape = "capsule"\nradius = 0.03\nlength = 0.1\n'
+    'material = "worn"\nposition = [-0.3, 0.05, 0.0]\nrotation_deg = [0, 90, 0]\n'
+)
+
+
+def _skidder(gl, path, tool: str):
+    """The plate with a ball (`_sandbox`) or a capsule lying along x, both with id "ball"."""
+    if tool == "ball":
+        return _sandbox(gl, path, 1e5)
+    path.mkdir(parents=True, exist_ok=True)
+    return _tool_sandbox(gl, path, 1e5, CAPSULE)
+
+
+@pytest.mark.parametrize("tool", ["ball", "capsule"])
+def test_save_and_resume_mid_slide_is_bit_identical(gl, tmp_path, tool):
+    """A ball skidding (a capsule sliding) over segment boundaries, saved part-way through a
+    segment and resumed in a new simulation: the plate's heights after as many steps are the
+    same bits as one run's, and so is the volume worn (the slide's unfinished segment travels
+    in the state, with whether it is the slide's first)."""
     from dentdemo.app.state import load_state, save_state
 
     def skid(sim, steps):
         for _ in range(steps):
             sim.step()
 
-    one = _sandbox(gl, tmp_path / "one", 1e5)
+    one = _skidder(gl, tmp_path / "one", tool)
     try:
         skid(one, 10)
         one.world.set_velocity("ball", (2.0, 0.0, 0.0), (0.0, 0.0, 0.0))
@@ -224,7 +241,7 @@ def test_save_and_resume_mid_slide_is_bit_identical(gl, tmp_path):
         expected, worn = _plate_heights(one), dict(one.wear.worn)
     finally:
         one.close()
-    two = _sandbox(gl, tmp_path / "two", 1e5)
+    two = _skidder(gl, tmp_path / "two", tool)
     try:
         load_state(two, tmp_path / "saved")
         assert two.wear is not None and two.wear.tracks
@@ -243,6 +260,7 @@ def test_save_and_resume_mid_slide_is_bit_identical(gl, tmp_path):
         (lambda w: w["tracks"][0].update(volume=-1.0), "volume"),
         (lambda w: w["tracks"][0].update(normal=[0.0, 2.0, 0.0]), "normal"),
         (lambda w: w["worn"].update(nobody=1.0), "nobody"),
+        (lambda w: w["tracks"][0].update(fresh="yes"), "fresh"),
     ],
 )
 def test_a_saved_slide_is_checked(gl, tmp_path, change, key):
@@ -450,18 +468,19 @@ def test_a_swept_box_hull_holds_the_box_and_the_prism_it_sweeps():
     assert mesh.bound is not None and len(mesh.bound.triangles) == len(mesh.indices)
 
 
+@pytest.mark.parametrize("tool", ["ball", "capsule"])
 @pytest.mark.slow
-def test_a_compact_save_after_a_scratch_holds_it(gl, tmp_path):
+def test_a_compact_save_after_a_scratch_holds_it(gl, tmp_path, tool):
     """Compact saves keep a checkpoint and the hit log since it, whose groove records hold the
-    scratches: loaded, the maps are the saved run's bit for bit, and the run goes on as one
-    that never stopped."""
+    scratches (a ball's swept capsule, a capsule's prism): loaded, the maps are the saved run's
+    bit for bit, and the run goes on as one that never stopped."""
     from dentdemo.app.state import enable_compact_saves, load_state, save_state
 
     def skid(sim, steps):
         for _ in range(steps):
             sim.step()
 
-    one = _sandbox(gl, tmp_path / "one", 1e5)
+    one = _skidder(gl, tmp_path / "one", tool)
     try:
         enable_compact_saves(one)
         skid(one, 10)
@@ -474,7 +493,7 @@ def test_a_compact_save_after_a_scratch_holds_it(gl, tmp_path):
         expected = _plate_heights(one)
     finally:
         one.close()
-    two = _sandbox(gl, tmp_path / "two", 1e5)
+    two = _skidder(gl, tmp_path / "two", tool)
     try:
         enable_compact_saves(two)
         load_state(two, tmp_path / "saved")
