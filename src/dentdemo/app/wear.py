@@ -16,9 +16,10 @@ volume); a capsule or a cylinder (its cap, side or rim: the support points of di
 across the path about the contact's, `_profile`) and a loaded mesh (its triangles near the
 contact, `_patch`): each swept as a prism, its cross-section across the path (at most
 RING_POINTS corners) run from the tool's print at the segment's start to its print at the end.
-A plate, static, is not a tool here (what slides over it is a ball or a crate whose contact moves
-over its own curved or flat face; `dentdemo scratch --tool plate` drags one). Worn bodies: any
-dentable body but the ground plane."""
+A plate, static, is not a tool here: what slides over it keeps the same face on it (a crate) or
+turns it slowly (a skidding ball), so that face's wear piles up pass after pass, which one
+MIN-blended groove per segment cannot hold (`dentdemo scratch --tool plate` drags one over a
+target). Worn bodies: any dentable body but the ground plane."""
 
 from __future__ import annotations
 
