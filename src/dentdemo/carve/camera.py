@@ -20,8 +20,16 @@ from numpy.typing import NDArray
 
 from dentdemo.carve import lanes
 from dentdemo.carve.constants import MIN_COS, RING_TEXELS, SLAB_MARGIN_TEXELS
-from dentdemo.carve.footprint import Overlap, Projected, Query, Rect, meeting_many, overlap
+from dentdemo.carve.footprint import Overlap, Projected, Query, Rect, lists_many, overlap
 from dentdemo.carve.linear import column_scale, cross3, dot3, inverse_rows, rows_times
+from dentdemo.carve.solids import (
+    ARRAY_BOUNDS,
+    Poses,
+    Solids,
+    overlap_solids,
+    pose_lanes,
+    solid_kind,
+)
 from dentdemo.mesh.mesh import Mesh
 
 Vec3 = NDArray[np.float64]
@@ -179,16 +187,14 @@ class _Frames(NamedTuple):
     origin: list[NDArray[np.float64]]
     texel: tuple[lanes.Lane, lanes.Lane]
     pitch: tuple[lanes.Lane, lanes.Lane]
-
-
-class _Posed(NamedTuple):
-    """A direction whose bodies can meet: its index in the batch, both bodies in its camera's
-    coordinates and the bound of their overlap."""
-
-    at: int
-    target_tris: Projected
-    tool_tris: Projected
-    bound: Overlap
+    #: `axes` and `origin` as arrays over the directions, (n, 3, 3) and (n, 3).
+    axes_array: NDArray[np.float64]
+    origin_array: NDArray[np.float64]
+    #: `axes` and `origin` as lanes: the rows (right, up, forward) and the origin.
+    rows: tuple[lanes.Lanes3, lanes.Lanes3, lanes.Lanes3]
+    origin_lanes: lanes.Lanes3
+    #: The targets' poses: each row's lanes (linear part's row, translation).
+    target_model: list[tuple[lanes.Lane, ...]]
 
 
 def _drafts(
@@ -198,23 +204,86 @@ def _drafts(
     mode: lanes.Mode,
 ) -> list[CameraDraft | None]:
     """`camera_drafts` of `requests`, their frames and views worked out in lanes made by
-    `mode`."""
+    `mode`, the footprint bounds of built-in solids over arrays (`solids`) and of other meshes
+    one by one (`footprint.overlap`)."""
     frames = _frames(requests, mode)
-    posed: list[_Posed] = []
-    for k, (target, tool, _, _, advance, _) in enumerate(requests):
-        target_tris = Projected(target.mesh, target.model, frames.origin[k], frames.axes[k])
-        tool_tris = Projected(tool.mesh, tool.model, frames.origin[k], frames.axes[k])
-        bound = overlap(target_tris, tool_tris, target.max_height, tool.max_height, advance)
+    tool_models = [np.asarray(r.tool.model, dtype=np.float64)[:3].tolist() for r in requests]
+    models = (frames.target_model, [mode.columns([m[i] for m in tool_models]) for i in range(3)])
+    poses = [pose_lanes(mode, frames.rows, frames.origin_lanes, model) for model in models]
+    arrays = [p.arrays(mode) for p in poses]
+    tris = [
+        [Projected.of(getattr(r, body).mesh, pose, k) for k, r in enumerate(requests)]
+        for body, pose in zip(("target", "tool"), arrays, strict=True)
+    ]
+    bounds = _bounds(requests, arrays, tris, loose)
+    drafts: list[CameraDraft | None] = [None] * len(requests)
+    at = [k for k, bound in enumerate(bounds) if bound is not None]
+    if at:
+        views = _views(requests, frames, at, bounds, tris, max_resolution, mode)
+        for k, draft in zip(at, views, strict=True):
+            drafts[k] = draft
+    return drafts
+
+
+#: A direction's footprint bound (camera metres): its rectangle (x0, x1, y0, y1), slab (lo,
+#: hi) and both bodies' whole s extents (target lo, hi, tool lo, hi: the depth range).
+_Bound = tuple[float, ...]
+
+
+def _bounds(
+    requests: Sequence[DraftRequest],
+    poses: list[Poses],
+    tris: list[list[Projected]],
+    loose: bool,
+) -> list[_Bound | None]:
+    """The footprint bound of each direction (None where its bodies cannot meet): those whose
+    bodies are both built-in solids of one pair of kinds, from `solids.ARRAY_BOUNDS` of them
+    on, together (`solids.overlap_solids`, arrays over the directions), the others one by one
+    (`footprint.overlap`, Python floats: the same bits), and with `loose` all of them by the
+    whole bodies."""
+    found: list[_Bound | None] = [None] * len(requests)
+    groups: dict[tuple, list[int]] = {}
+    alone: list[int] = []
+    for k, r in enumerate(requests):
+        kinds = (solid_kind(r.target.mesh), solid_kind(r.tool.mesh))
+        if loose or kinds[0] is None or kinds[1] is None:
+            alone.append(k)
+        else:
+            groups.setdefault(kinds, []).append(k)
+    for (target_kind, tool_kind), members in groups.items():
+        if len(members) < ARRAY_BOUNDS:
+            alone += members
+            continue
+        at = np.array(members)
+        chosen = [requests[k] for k in members]
+        bounds = overlap_solids(
+            Solids([r.target.mesh.bound for r in chosen], poses[0].take(at), target_kind[-1]),  # type: ignore[misc]
+            Solids([r.tool.mesh.bound for r in chosen], poses[1].take(at), tool_kind[-1]),  # type: ignore[misc]
+            *np.array([(r.target.max_height, r.tool.max_height, r.advance) for r in chosen]).T,
+        )
+        rows = np.array([*bounds.rect, *bounds.slab, *bounds.target_s, *bounds.tool_s]).T
+        for k, meets, row in zip(members, bounds.meets.tolist(), rows.tolist(), strict=True):
+            found[k] = tuple(row) if meets else None
+    for k in alone:
+        target, tool = requests[k].target, requests[k].tool
+        target_tris, tool_tris = tris[0][k], tris[1][k]
+        bound = overlap(
+            target_tris, tool_tris, target.max_height, tool.max_height, requests[k].advance
+        )
         if bound is not None:
             if loose:
                 bound = _loose(target_tris, tool_tris, bound)
-            posed.append(_Posed(k, target_tris, tool_tris, bound))
-    drafts: list[CameraDraft | None] = [None] * len(requests)
-    if posed:
-        views = _views(requests, frames, posed, max_resolution, mode)
-        for one, draft in zip(posed, views, strict=True):
-            drafts[one.at] = draft
-    return drafts
+            rect = bound.rect
+            found[k] = (
+                rect.x0,
+                rect.x1,
+                rect.y0,
+                rect.y1,
+                *bound.slab,
+                *target_tris.s_range(),
+                *tool_tris.s_range(),
+            )
+    return found
 
 
 def _frames(requests: Sequence[DraftRequest], mode: lanes.Mode) -> _Frames:
@@ -268,30 +337,42 @@ def _frames(requests: Sequence[DraftRequest], mode: lanes.Mode) -> _Frames:
     dv = (mode.floor(v * height) + 0.5) / height - v
     origin = tuple(p + a * du + b * dv for p, a, b in zip(point, dpdu, dpdv, strict=True))
     if mode is lanes.ONE:
-        axes, origins = [np.array([right, up, forward])], [np.array(origin)]
+        axes_array, origin_array = np.array([[right, up, forward]]), np.array([origin])
     else:
-        stacked = np.array([right, up, forward]).transpose(2, 0, 1)
-        axes, origins = list(np.ascontiguousarray(stacked)), list(np.array(origin).T.copy())
-    return _Frames(axes, origins, (texel_u, texel_v), (pitch_x, pitch_y))
+        axes_array = np.ascontiguousarray(np.array([right, up, forward]).transpose(2, 0, 1))
+        origin_array = np.array(origin).T.copy()
+    return _Frames(
+        list(axes_array),
+        list(origin_array),
+        (texel_u, texel_v),
+        (pitch_x, pitch_y),
+        axes_array,
+        origin_array,
+        (right, up, forward),
+        origin,
+        rows,
+    )
 
 
 def _views(
     requests: Sequence[DraftRequest],
     frames: _Frames,
-    posed: list[_Posed],
+    at: list[int],
+    bounds: list[_Bound | None],
+    tris: list[list[Projected]],
     max_resolution: int,
     mode: lanes.Mode,
 ) -> list[CameraDraft]:
-    """The drafts of the directions `posed` (each with its bound) of `requests`: each one's
-    lattice of pixels over its bound, depth range and slabs, one expression per step over the
-    lanes (`lanes.Lane`)."""
-    at = [one.at for one in posed]
+    """The drafts of the directions `at` of `requests` (whose bodies can meet, by `bounds`):
+    each one's lattice of pixels over its bound, depth range, slabs and the rectangle of its
+    target's triangle lists, one expression per step over the lanes (`lanes.Lane`)."""
+
     # The frames' lanes, of the directions posed.
     texel_u, texel_v, pitch_x, pitch_y = (
         x[at] if isinstance(x, np.ndarray) else x for x in (*frames.texel, *frames.pitch)
     )
-    x0, x1, y0, y1, slab_lo, slab_hi = mode.columns(
-        [(b.rect.x0, b.rect.x1, b.rect.y0, b.rect.y1, *b.slab) for b in (p.bound for p in posed)]
+    (x0, x1, y0, y1, slab_lo, slab_hi, target_lo, target_hi, tool_lo, tool_hi) = mode.columns(
+        [bounds[k] for k in at]  # type: ignore[misc]
     )
     texel = mode.greater(texel_u, texel_v)
     margin = 2.0 * texel + mode.greater(pitch_x, pitch_y)
@@ -314,9 +395,6 @@ def _views(
     cy, rows, pitch_y = lattice(y0 - margin, y1 + margin, pitch_y)
     # Depth range: everything of both bodies, so that nothing in front of the target is
     # clipped.
-    target_lo, target_hi, tool_lo, tool_hi = mode.columns(
-        [(*one.target_tris.s_range(), *one.tool_tris.s_range()) for one in posed]
-    )
     bodies = [requests[k] for k in at]
     target_height, target_dent, tool_height, tool_dent = (
         mode.greater(x, 0.0)
@@ -335,10 +413,12 @@ def _views(
     bumps = 0 + (target_height + target_dent) + (tool_height + tool_dent)
     near_s = mode.lesser(target_lo, tool_lo) - bumps - 1e-4
     far_s = mode.greater(target_hi, tool_hi) + bumps + 1e-4
-    axes = [frames.axes[k] for k in at]
-    flat = mode.columns([a.ravel().tolist() for a in axes])
-    right, up, forward = flat[0:3], flat[3:6], flat[6:9]
-    origin = mode.columns([frames.origin[k].tolist() for k in at])
+    if mode is lanes.ONE:
+        right, up, forward = frames.rows
+        origin = frames.origin_lanes
+    else:
+        right, up, forward = (tuple(x[at] for x in row) for row in frames.rows)
+        origin = tuple(x[at] for x in frames.origin_lanes)
     eye = tuple(
         o + r * cx + w * cy + f * near_s
         for o, r, w, f in zip(origin, right, up, forward, strict=True)
@@ -363,11 +443,19 @@ def _views(
     # surface pass 2 keeps, so leaving it out drops nothing that pass 2 or 4 would test
     # against it.
     tool_near = gather_lo - proud - 2.0 * mode.greater(pitch_x, pitch_y)
+    vx0, vx1, vy0, vy1 = cx - half_x, cx + half_x, cy - half_y, cy + half_y
+    # Passes 4 and 5 draw the target's triangles in the bound grown by two texels, within the
+    # view (`texel_rect`), or the whole view for a target that may hide part of itself.
+    grow = 2.0 * texel
+    tx0, tx1 = mode.greater(x0 - grow, vx0), mode.lesser(x1 + grow, vx1)
+    ty0, ty1 = mode.greater(y0 - grow, vy0), mode.lesser(y1 + grow, vy1)
+    (solid,) = mode.columns([[float(r.target.mesh.bound is not None)] for r in bodies])
+    inside = (tx0 <= tx1) & (ty0 <= ty1) & (solid > 0.0)
     outputs = (
-        cx - half_x,
-        cx + half_x,
-        cy - half_y,
-        cy + half_y,
+        vx0,
+        vx1,
+        vy0,
+        vy1,
         half_x,
         half_y,
         cols,
@@ -380,26 +468,29 @@ def _views(
         gather_lo - near_s,
         gather_hi - near_s,
         *eye,
+        mode.where(inside, tx0, vx0),
+        mode.where(inside, tx1, vx1),
+        mode.where(inside, ty0, vy0),
+        mode.where(inside, ty1, vy1),
     )
     columns = mode.rows(outputs)
     drafts = []
-    for one, frame, values in zip(posed, axes, columns, strict=True):
+    for k, values in zip(at, columns, strict=True):
         (vx0, vx1, vy0, vy1, hx, hy, nx, ny, texel_k, lo, hi, tool_s, depth, near, far) = values[
             :15
         ]
-        request = requests[one.at]
-        view = Rect(vx0, vx1, vy0, vy1)
+        request, frame = requests[k], frames.axes[k]
         drafts.append(
             CameraDraft(
                 target=request.target,
-                target_tris=one.target_tris,
-                tool_tris=one.tool_tris,
-                view=view,
-                texel_view=texel_rect(request.target, one.bound.rect, 2.0 * texel_k, view),
+                target_tris=tris[0][k],
+                tool_tris=tris[1][k],
+                view=Rect(vx0, vx1, vy0, vy1),
+                texel_view=Rect(*values[18:22]),
                 texel_slab=(lo, hi),
                 tool_slab=(tool_s, np.inf) if request.tool_list else None,
                 fields={
-                    "eye": np.array(values[15:]),
+                    "eye": np.array(values[15:18]),
                     "right": frame[0],
                     "up": frame[1],
                     "forward": frame[2],
@@ -441,7 +532,7 @@ def collision_cameras(
             queries.append((draft.target_tris, draft.texel_view, draft.texel_slab))
             if draft.tool_slab is not None:
                 queries.append((draft.tool_tris, draft.view, draft.tool_slab))
-    lists = iter(meeting_many(queries, exact_lists))
+    lists = iter(lists_many(queries, exact_lists))
     cameras: list[CollisionCamera | None] = []
     for draft in drafts:
         if draft is None:

@@ -21,7 +21,9 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from dentdemo.carve.linear import column_scale, determinant3
+from dentdemo.carve.cube_lists import closed_form, cube_lists
+from dentdemo.carve.lanes import ONE
+from dentdemo.carve.solids import Poses, pose_lanes, posed_floats
 from dentdemo.mesh.mesh import Mesh
 
 Array = NDArray[np.float64]
@@ -68,27 +70,52 @@ class Projected:
     the few triangles that need them: a hit's CPU work follows the triangles near the footprint."""
 
     def __init__(self, mesh: Mesh, model: Array, origin: Array, axes: Array) -> None:
-        m = np.asarray(model, dtype=np.float64)
-        self._local_axes = axes @ m[:3, :3]  # row k: local vector whose dot gives camera axis k
-        self._offset = axes @ (m[:3, 3] - origin)
-        # Poses are rotations times a uniform scale: any column's length is the scale.
-        self._scale = column_scale(m[:3, :3])
+        rows = np.asarray(axes, dtype=np.float64).tolist()
+        model_rows = np.asarray(model, dtype=np.float64)[:3].tolist()
+        o = np.asarray(origin, dtype=np.float64).tolist()
+        pose = pose_lanes(ONE, (rows[0], rows[1], rows[2]), (o[0], o[1], o[2]), model_rows)
+        self._posed(mesh, pose.arrays(ONE), 0)
+
+    @classmethod
+    def of(cls, mesh: Mesh, pose: Poses, at: int) -> Projected:
+        """`mesh` posed as direction `at` of `pose` (`solids.Poses`: a batch's poses at once,
+        each with the bits it has alone)."""
+        made = cls.__new__(cls)
+        made._posed(mesh, pose, at)
+        return made
+
+    def _posed(self, mesh: Mesh, pose: Poses, at: int) -> None:
+        #: Row k: the local vector whose dot product gives camera axis k.
+        self._local_axes = pose.axes[at]
+        self._offset = pose.offset[at]
+        #: The pose's scale: poses are rotations times a uniform scale.
+        self._scale = float(pose.scale[at])
         #: +1, or -1 for a pose that mirrors (its windings turn over).
-        self._handed = 1.0 if determinant3(m[:3, :3]) > 0.0 else -1.0
+        self._handed = float(pose.handed[at])
         self._mesh = mesh
         bound = mesh.bound
-        #: A built-in shape's solid: a swept sphere (segment, radius) or its few faces.
-        self._segment = (
-            None if bound is None or bound.segment is None else self._to_camera(bound.segment)
-        )
         self._radius = 0.0 if bound is None else bound.radius * self._scale
-        self._faces = (
-            None if bound is None or bound.triangles is None else self._to_camera(bound.triangles)
-        )
         #: Whether the mesh bounds a solid (see Mesh.encloses_volume).
         self.solid = mesh.encloses_volume()
         self._s_range: tuple[float, float] | None = None
         self._rect: Rect | None = None
+
+    @cached_property
+    def _segment(self) -> Array | None:
+        """A built-in shape's solid: a swept sphere's segment (2, 3), camera coordinates."""
+        bound = self._mesh.bound
+        if bound is None or bound.segment is None:
+            return None
+        return np.array(posed_floats(self._local_axes, self._offset, bound.segment))
+
+    @cached_property
+    def _faces(self) -> Array | None:
+        """A built-in shape's few faces (k, 3, 3), camera coordinates."""
+        bound = self._mesh.bound
+        if bound is None or bound.triangles is None:
+            return None
+        flat = posed_floats(self._local_axes, self._offset, bound.triangles.reshape(-1, 3))
+        return np.array(flat).reshape(bound.triangles.shape)
 
     @cached_property
     def _clusters(self) -> tuple[Array, Array, NDArray[np.int64]]:
@@ -199,7 +226,8 @@ class Projected:
         # The outward normal's s (a positive multiple): the local one along the camera's s.
         # Unlike `faces_away`, not turned over by a mirroring pose: a mirror moves the solid,
         # not which side is out.
-        s = bound.outward @ self._local_axes[2]
+        a0, a1, a2 = self._local_axes[2].tolist()
+        s = np.array([a0 * x + a1 * y + a2 * z for x, y, z in bound.outward.tolist()])
         return faces[s <= 0.0] if front else faces[s >= 0.0]
 
     def slab_part(self, rect: Rect, lo: float, hi: float) -> Rect | None:
@@ -258,6 +286,28 @@ def meeting_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
     sizes = [len(m) for m in members]
     keep = _split(_meets_boxes(np.concatenate(centres), np.concatenate(radii), boxes, sizes), sizes)
     return [m[k] for m, k in zip(members, keep, strict=True)]
+
+
+def lists_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
+    """`meeting_many` of each query, those on a built-in sphere from its cube atlas in closed
+    form (`cube_lists`: no cluster search; with `exact` the same triangles, else the
+    triangles of the cells its box projects into, a superset like whole clusters), the
+    others by `meeting_many`; each query's list is the same alone as in any batch."""
+    found: list[Indices | None] = [None] * len(queries)
+    spheres: dict[int, list[int]] = {}
+    rest: list[int] = []
+    for k, query in enumerate(queries):
+        mesh = query[0]._mesh
+        if closed_form(mesh):
+            spheres.setdefault(id(mesh), []).append(k)
+        else:
+            rest.append(k)
+    for members in spheres.values():
+        for k, listed in zip(members, cube_lists([queries[k] for k in members]), strict=True):
+            found[k] = listed
+    for k, listed in zip(rest, meeting_many([queries[k] for k in rest], exact), strict=True):
+        found[k] = listed
+    return found  # type: ignore[return-value]
 
 
 def _meets_boxes(centre: Array, radius: Array, boxes: Array, sizes: list[int]) -> NDArray[np.bool_]:

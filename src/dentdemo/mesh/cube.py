@@ -53,7 +53,7 @@ def cube_triangle(point: tuple[float, float, float], n: int) -> int:
     fy = (math.atan(_dot3(point, along) / depth) / quarter + 1.0) * (n / 2.0)
     col, row = min(max(math.floor(fx), 0), n - 1), min(max(math.floor(fy), 0), n - 1)
 
-    tangents = _grid_tangents(n)
+    tangents = grid_tangents(n)
 
     def corner(c: int, r: int) -> tuple[float, float, float]:
         """The direction of the grid's vertex at column c, row r (not unit)."""
@@ -71,7 +71,7 @@ def cube_triangle(point: tuple[float, float, float], n: int) -> int:
 
 
 @functools.cache
-def _grid_tangents(n: int) -> tuple[float, ...]:
+def grid_tangents(n: int) -> tuple[float, ...]:
     """tan(s pi / 4) at each of the n + 1 grid lines s = 2 k / n - 1 of a cube-sphere face."""
     return tuple(math.tan((2.0 * k / n - 1.0) * math.pi / 4.0) for k in range(n + 1))
 

@@ -142,6 +142,14 @@ class Mesh:
         _, _, _, centre, radius = self._bounds()
         return centre, radius
 
+    def triangle_reach(self) -> float:
+        """The largest triangle bounding-sphere radius, local metres (cached)."""
+        cached = getattr(self, "_reach_cache", None)
+        if cached is None or cached[0] != len(self.indices):
+            cached = (len(self.indices), float(self.triangle_spheres()[1].max(initial=0.0)))
+            self._reach_cache = cached
+        return cached[1]
+
     def triangle_derivatives(
         self, which: NDArray[np.int64] | None = None
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -359,6 +367,7 @@ class Mesh:
         self.face_normals()
         self.triangle_uv_bounds()
         self.clusters()
+        self.triangle_reach()
         self.cluster_members_spheres()
         self.shared_normal()
         self.triangle_derivatives()
@@ -510,6 +519,11 @@ class Mesh:
             np.abs(d - d[0]).max() <= tolerance * max(float(np.abs(d[0]).max()), 1e-30)
             for d in (dpdu, dpdv)
         )
+
+    def laid_as_cube_sphere(self) -> bool:
+        """Whether this is a built-in sphere whose triangles are still those its cube atlas laid
+        out (`cube.cube_triangle` and the carve's `cube_lists` find them in closed form)."""
+        return self._frame_lookup() == "cube"
 
     def _frame_lookup(self) -> str:
         """How `frame_near` finds its triangle (cached): "flat" where every triangle has one
