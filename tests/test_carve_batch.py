@@ -357,9 +357,9 @@ def test_a_convex_target_needs_no_address_map(gl, case):
             drawn: list[str] = []
             passes = carver._camera_passes
 
-            def recorded(name, fbo, jobs, passes=passes, drawn=drawn):  # noqa: ANN001, ANN202
+            def recorded(name, *rest, passes=passes, drawn=drawn):  # noqa: ANN001, ANN002, ANN202
                 drawn.append(name)
-                passes(name, fbo, jobs)
+                passes(name, *rest)
 
             carver._camera_passes = recorded  # type: ignore[method-assign]
             target = bodies.make(press_mesh(shape, 2), 256)

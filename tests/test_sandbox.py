@@ -472,8 +472,8 @@ def test_every_pass_a_hit_draws_a_body_with_is_one_the_body_was_made_and_warmed_
     real = carver_module.shared_batch
 
     @contextmanager
-    def recording(ctx, fbo, state):  # noqa: ANN001, ANN202 - shared_batch's own
-        with real(ctx, fbo, state) as one:
+    def recording(ctx, fbo, state, *held):  # noqa: ANN001, ANN002, ANN202 - shared_batch's own
+        with real(ctx, fbo, state, *held) as one:
 
             def record(pass_, viewport, draw, textures=(), *rest, **named):  # noqa: ANN001, ANN202
                 drawn.append((pass_, textures))

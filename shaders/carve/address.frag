@@ -7,6 +7,10 @@
 // A surface in front of the tool's nearest point at first touch (pass 3's front, less the advance)
 // lies behind the tool, outside anything it sweeps: it is dropped, so it neither hides the surface
 // the tool meets nor takes a dent (a shelf over the tool, a ledge overhanging it).
+#if QUAD  // drawn instanced (quad.vert): the entry comes from the vertex stage
+flat in int v_job;
+#define JOB v_job
+#endif
 #include "camera.glsl"
 #include "../include/texel.glsl"
 #include "../include/bump_depth.glsl"

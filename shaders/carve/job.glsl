@@ -43,36 +43,39 @@ struct CarveEntry {
 layout(std140) uniform CarveJobs {
     CarveEntry u_entries[JOB_ENTRIES];
 };
-uniform int u_job;  // this draw's entry in the range bound
-
-#define u_model u_entries[u_job].model
-#define u_normal_matrix u_entries[u_job].normal_matrix
-#define u_swept_local u_entries[u_job].swept_local
-#define u_eye u_entries[u_job].eye
-#define u_advance u_entries[u_job].advance
-#define u_right u_entries[u_job].right
-#define u_near_clip u_entries[u_job].near_clip
-#define u_up u_entries[u_job].up
-#define u_min_height u_entries[u_job].min_height
-#define u_forward u_entries[u_job].forward
-#define u_ceiling u_entries[u_job].ceiling
-#define u_swept_a u_entries[u_job].swept_a
-#define u_swept_radius u_entries[u_job].swept_radius
-#define u_swept_b u_entries[u_job].swept_b
-#define u_pixel_diagonal u_entries[u_job].pixel_diagonal
-#define u_capsule u_entries[u_job].capsule
-#define u_cube_radius u_entries[u_job].cube_radius
-#define u_half_extent u_entries[u_job].half_extent
-#define u_depth_range u_entries[u_job].depth_range
-#define u_resolution u_entries[u_job].resolution
-#define u_tile u_entries[u_job].tile
-#define u_clip_half u_entries[u_job].clip_half
-#if RING  // pass 5 keeps the ring around the slab
-#define u_slab u_entries[u_job].ring_slab
-#else
-#define u_slab u_entries[u_job].slab
+uniform int u_job;  // this draw's entry in the range bound (its first instance's)
+#ifndef JOB  // the entry read: an instanced draw's stages name theirs (quad.vert)
+#define JOB u_job
 #endif
-#define u_map_size u_entries[u_job].map_size
-#define u_cube_grid u_entries[u_job].cube_grid
-#define u_clip u_entries[u_job].clip
+
+#define u_model u_entries[JOB].model
+#define u_normal_matrix u_entries[JOB].normal_matrix
+#define u_swept_local u_entries[JOB].swept_local
+#define u_eye u_entries[JOB].eye
+#define u_advance u_entries[JOB].advance
+#define u_right u_entries[JOB].right
+#define u_near_clip u_entries[JOB].near_clip
+#define u_up u_entries[JOB].up
+#define u_min_height u_entries[JOB].min_height
+#define u_forward u_entries[JOB].forward
+#define u_ceiling u_entries[JOB].ceiling
+#define u_swept_a u_entries[JOB].swept_a
+#define u_swept_radius u_entries[JOB].swept_radius
+#define u_swept_b u_entries[JOB].swept_b
+#define u_pixel_diagonal u_entries[JOB].pixel_diagonal
+#define u_capsule u_entries[JOB].capsule
+#define u_cube_radius u_entries[JOB].cube_radius
+#define u_half_extent u_entries[JOB].half_extent
+#define u_depth_range u_entries[JOB].depth_range
+#define u_resolution u_entries[JOB].resolution
+#define u_tile u_entries[JOB].tile
+#define u_clip_half u_entries[JOB].clip_half
+#if RING  // pass 5 keeps the ring around the slab
+#define u_slab u_entries[JOB].ring_slab
+#else
+#define u_slab u_entries[JOB].slab
+#endif
+#define u_map_size u_entries[JOB].map_size
+#define u_cube_grid u_entries[JOB].cube_grid
+#define u_clip u_entries[JOB].clip
 #endif

@@ -10,6 +10,7 @@ import math
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field, replace
+from functools import partial
 from itertools import islice
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -25,7 +26,7 @@ from dentdemo.carve.camera import (
     camera_drafts,
     collision_cameras,
 )
-from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
+from dentdemo.carve.constants import JOB_ENTRIES, NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
 from dentdemo.carve.jobs import JobTable
 from dentdemo.carve.linear import inverse3
 from dentdemo.carve.params import (
@@ -54,7 +55,7 @@ from dentdemo.carve.texel_passes import (
 from dentdemo.carve.undo import footprint_boxes
 from dentdemo.gl.context import GLContext, release
 from dentdemo.gl.library import flush
-from dentdemo.gl.passes import Blend, Pass, PassState, neutral, shared_batch
+from dentdemo.gl.passes import Blend, HeldState, Pass, PassState, held_state, neutral, shared_batch
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
 from dentdemo.gpu.maps import SurfaceMaps
@@ -265,10 +266,10 @@ def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
 
 
-def _entries(job: CarveJob) -> tuple[dict[str, object], dict[str, object]]:
-    """`job`'s two entries of the batch's job table: its target's (passes 2, 4 and 5: the
-    camera, the target's pose and solid, the press, the clip box and both slabs, the gather's
-    bounds) and its tool's (pass 3: the camera, the tool's pose and solid)."""
+def _target_entry(job: CarveJob) -> dict[str, object]:
+    """`job`'s target's entry of the batch's job table (passes 2, 4 and 5: the camera, the
+    target's pose and solid, the press, the clip box and both slabs, the gather's bounds); its
+    tool's (pass 3) is `tool_uniforms` (the camera, the tool's pose and solid)."""
     cam, maps = job.camera, job.target.maps
     px, py = cam.pixel_metres
     bounds = Gather(
@@ -276,8 +277,7 @@ def _entries(job: CarveJob) -> tuple[dict[str, object], dict[str, object]]:
         u_ceiling=maps.max_height,
         u_pixel_diagonal=math.hypot(px, py),
     )
-    target = {**job.target_uniforms, **clip_uniforms(cam, maps).values(), **bounds.values()}
-    return target, job.tool_uniforms
+    return {**job.target_uniforms, **clip_uniforms(cam, maps).values(), **bounds.values()}
 
 
 @contextlib.contextmanager
@@ -381,7 +381,11 @@ class Carver:
                     f"carve/{name}.frag",
                     "carve/peel.geom" if name == "peel" and not quad else None,
                     defines=shader_defines(
-                        SWEPT=int(swept), QUAD=int(quad), PLANE=int(name == "peel"), **atlas
+                        SWEPT=int(swept),
+                        QUAD=int(quad),
+                        PLANE=int(name == "peel"),
+                        ATLAS=f"vec2{tuple(float(side) for side in self.scratch.size)}",
+                        **atlas,
                     ),
                 )
                 key = (name, swept, quad)
@@ -466,25 +470,27 @@ class Carver:
         by the map they write. The undo log (if any) records `record` (every hit of the call:
         one entry, the maps before all of it) before the first gather writes; `meanwhile` (if
         any) runs once the gathers are flushed, before the normal rebuilds."""
-        self._camera_stage(jobs)  # writes the batch's job table
-        # Hand passes 3 and 2 to the rasteriser now: a software one draws them while the CPU
-        # goes on (the undo log's snapshot, the gathers' draws), instead of when the first
-        # gather samples their result.
-        flush()
-        if record is not None and self._options.undo_log is not None:
-            self._options.undo_log.record(record)
-        # One map's draws together; each job with its place in the batch (its entries).
-        by_map = sorted(enumerate(jobs), key=lambda placed: id(placed[1].target.maps))
-        rects, quad = self._switches.rect_texels_per_triangle, self._draw_quad
-        draws = [list(_texel_draws(job, rects, quad)) for _, job in by_map]  # passes 4, 5 share
-        with self._timed("gather"):
-            self._gather_passes(by_map, draws)
-        if meanwhile is not None:
-            flush()  # the gathers drawn while the host's work runs
-            meanwhile()
-            self._jobs.forget()  # the host's work may have bound another uniform buffer
-        with self._timed("normals"):
-            self._normal_passes(by_map, draws)
+        with held_state(self.gl.ctx) as held:  # each pass sets what differs from the last
+            self._camera_stage(jobs, held)  # writes the batch's job table
+            # Hand passes 3 and 2 to the rasteriser now: a software one draws them while the
+            # CPU goes on (the undo log's snapshot, the gathers' draws), instead of when the
+            # first gather samples their result.
+            flush()
+            if record is not None and self._options.undo_log is not None:
+                self._options.undo_log.record(record)  # binds framebuffers only
+            # One map's draws together; each job with its place in the batch (its entries).
+            by_map = sorted(enumerate(jobs), key=lambda placed: id(placed[1].target.maps))
+            rects, quad = self._switches.rect_texels_per_triangle, self._draw_quad
+            draws = [list(_texel_draws(job, rects, quad)) for _, job in by_map]  # 4 and 5 share
+            with self._timed("gather"):
+                self._gather_passes(by_map, draws, held)
+            if meanwhile is not None:
+                flush()  # the gathers drawn while the host's work runs
+                meanwhile()
+                held.forget()  # the host's work may have set state, bound textures
+                self._jobs.forget()  # or bound another uniform buffer
+            with self._timed("normals"):
+                self._normal_passes(by_map, draws, held)
         # And pass 5 now, for the same reason: the host's CPU work after the batch then
         # overlaps it, instead of its first GL call that waits (or its glFinish) starting it.
         flush()
@@ -706,31 +712,39 @@ class Carver:
         return found[1]
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
-    def _camera_stage(self, jobs: list[CarveJob]) -> None:
+    def _camera_stage(self, jobs: list[CarveJob], held: HeldState | None = None) -> None:
         """Pass 3, then pass 2 (it reads pass 3's front faces), of every job of a batch, each
         after one clear of the tiles' bounding box; pass 2 only for the targets that may hide
-        part of themselves (not `convex`), unless `address_every_target`."""
+        part of themselves (not `convex`), unless `address_every_target`. Writes the batch's
+        job table first: job k's target entry is k, the tools' entries follow in pass 3's
+        draw order (so that the quads of one variant and map are one instanced draw). `held`:
+        the state the batch's passes set so far (`gl.passes.held_state`), or None: each pass
+        sets its own and leaves `neutral` state."""
         scratch = self.scratch
-        self._jobs.write([entry for job in jobs for entry in _entries(job)])
         indexed = list(enumerate(jobs))
+        peel = self._camera_draws("peel", indexed)
+        tools = [job.tool_uniforms for items in peel.values() for _, job, *_ in items]
+        self._jobs.write([_target_entry(job) for job in jobs] + tools)
+        entries = iter(range(len(jobs), len(jobs) + len(tools)))
         with self._timed("peel"):
             self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
-            self._camera_passes("peel", scratch.peel_fbo, indexed)
+            self._camera_passes("peel", scratch.peel_fbo, peel, entries, held)
         every = self._options.address_every_target
         hiding = [(k, job) for k, job in indexed if every or not job.convex]
         if hiding:
             with self._timed("address"):
                 cleared = [job for _, job in hiding]
                 self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), cleared)
-                self._camera_passes("address", scratch.address_fbo, hiding)
+                address = self._camera_draws("address", hiding)
+                targets = (k for items in address.values() for k, *_ in items)
+                self._camera_passes("address", scratch.address_fbo, address, targets, held)
 
-    def _camera_passes(
-        self, name: str, fbo: moderngl.Framebuffer, jobs: list[tuple[int, CarveJob]]
-    ) -> None:
-        """Pass 2 ("address": each job's target) or 3 ("peel": its tool) drawn by each job's
-        collision camera into its tile of `fbo` (cleared by the batch), sampling the body's own
-        height map (pass 2 also pass 3's result); the state is applied once, each variant's
-        draws together. `jobs`: each with its place in the batch's job table."""
+    def _camera_draws(
+        self, name: str, jobs: list[tuple[int, CarveJob]]
+    ) -> dict[tuple, list[tuple]]:
+        """Pass 2's ("address": each job's target) or 3's ("peel": its tool) draws of `jobs`
+        (each with its place in the batch) by variant: (k, job, draw, the textures it samples,
+        the quad's or None), a variant's quads by the height map they sample."""
         inputs = (self.scratch.tool_depth,) if name == "address" else ()
         tool = name == "peel"
         variants: dict[tuple, list[tuple]] = {}
@@ -740,23 +754,62 @@ class Carver:
             uniforms = job.tool_uniforms if tool else job.target_uniforms
             kind = uniforms.get("u_quad", 0)
             quad = kind if self._switches.swept_quads and isinstance(kind, int) else 0
-            draw = self._draw_quad if quad else body.gpu_mesh.drawer(triangles, name)
-            item = (job.viewport, draw, (body.maps.height, *inputs), 2 * k + tool)
+            draw = None if quad else body.gpu_mesh.drawer(triangles, name)
+            item = (k, job, draw, (body.maps.height, *inputs))
             variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)
-        with shared_batch(self.gl.ctx, fbo, _SURFACE_PASSES[name][0]) as one:
-            for variant, items in variants.items():
-                for viewport, draw, textures, entry in items:
-                    index = Draw(u_job=self._jobs.use(entry)).values()
-                    one(self._surface[variant], viewport, draw, textures, index)
+        for (_, _, quad), items in variants.items():
+            if quad:  # one instanced draw per map sampled (the sort is stable)
+                items.sort(key=lambda item: id(item[3][0]))
+        return variants
 
-    def _draw_quad(self, prog: moderngl.Program) -> None:
-        """quad.vert's four corners (no vertex data)."""
+    def _camera_passes(
+        self,
+        name: str,
+        fbo: moderngl.Framebuffer,
+        variants: dict[tuple, list[tuple]],
+        entries: Iterator[int],
+        held: HeldState | None,
+    ) -> None:
+        """Pass 2 or 3's draws (`_camera_draws`) by each job's collision camera into its tile
+        of `fbo` (cleared by the batch), sampling the body's own height map (pass 2 also pass
+        3's result); the state applied once, each variant's draws together. `entries`: each
+        draw's entry of the job table, in order. A swept solid's quads (quad.vert) are placed
+        in their tiles by the vertex stage, so the quads of one variant that sample one map
+        and lie in one range of the table are one instanced draw (gl_InstanceID: the entry
+        after the first)."""
+        atlas = (0, 0, *self.scratch.size)
+        with shared_batch(self.gl.ctx, fbo, _SURFACE_PASSES[name][0], held) as one:
+            for variant, items in variants.items():
+                pass_ = self._surface[variant]
+                if not variant[2]:
+                    for (_, job, draw, textures), entry in zip(items, entries, strict=False):
+                        one(pass_, job.viewport, draw, textures, {"u_job": self._jobs.use(entry)})
+                    continue
+                runs: list[tuple[int, list[tuple]]] = []  # (first entry, its items)
+                for item, entry in zip(items, entries, strict=False):
+                    first, run = runs[-1] if runs else (-1, [])
+                    if (
+                        entry == first + len(run)
+                        and entry % JOB_ENTRIES  # in the range of the entry before it
+                        and item[3][0] is run[-1][3][0]  # the same map
+                    ):
+                        run.append(item)
+                    else:
+                        runs.append((entry, [item]))
+                for first, run in runs:
+                    draw = partial(self._draw_quad, instances=len(run))
+                    one(pass_, atlas, draw, run[0][3], {"u_job": self._jobs.use(first)})
+
+    def _draw_quad(self, prog: moderngl.Program, instances: int = 1) -> None:
+        """quad.vert's (or util/rect.vert's) four corners (no vertex data), `instances` times."""
         if prog.glo not in self._quad_vaos:
             self._quad_vaos[prog.glo] = self.gl.ctx.vertex_array(prog, [])
-        self._quad_vaos[prog.glo].render(moderngl.TRIANGLE_STRIP, vertices=4)
+        self._quad_vaos[prog.glo].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=instances)
 
     # -- pass 5 --------------------------------------------------------------------------------
-    def _normal_passes(self, jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]]) -> None:
+    def _normal_passes(
+        self, jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]], held: HeldState
+    ) -> None:
         """Pass 5 of `jobs` (each with its place in the batch, sorted by the map they dent;
         `draws`: each one's `_texel_draws`) over their footprints' texels and the ring beside
         them (RING 1: the entry's `ring_slab`): the state applied once, each map's framebuffer
@@ -767,11 +820,13 @@ class Carver:
             for kind, draw, own in texel_draws:
                 pass_ = self._texel["normals", kind, False]
                 textures = (maps.height, maps.mask)
-                items.append((pass_, maps.normal_fbo, maps.size, draw, textures, 2 * k, own))
-        self._texture_space(items)
+                items.append((pass_, maps.normal_fbo, maps.size, draw, textures, k, own))
+        self._texture_space(items, held)
 
     # -- pass 4 --------------------------------------------------------------------------------
-    def _gather_passes(self, jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]]) -> None:
+    def _gather_passes(
+        self, jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]], held: HeldState
+    ) -> None:
         """Pass 4 of `jobs` (each with its place in the batch, sorted by the map they dent;
         `draws`: each one's `_texel_draws`): the state applied once (every variant has the
         same), each map's framebuffer bound once."""
@@ -783,10 +838,10 @@ class Carver:
             swept = bool(job.target_uniforms["u_swept"])
             for kind, draw, own in texel_draws:
                 pass_ = self._texel["gather", kind, swept, job.oblique, job.convex]
-                items.append((pass_, maps.height_fbo, maps.size, draw, textures, 2 * k, own))
-        self._texture_space(items)
+                items.append((pass_, maps.height_fbo, maps.size, draw, textures, k, own))
+        self._texture_space(items, held)
 
-    def _texture_space(self, items: list[tuple]) -> None:
+    def _texture_space(self, items: list[tuple], held: HeldState) -> None:
         """Passes of one state drawn over `items` (pass, framebuffer, map size, draw, textures,
         the entry of the job table, the draw's own uniforms or None) in order, each over the
         whole of its framebuffer's map. The draws into one map's texels are disjoint (a chart
@@ -794,7 +849,7 @@ class Carver:
         changes no texel."""
         if not items:
             return
-        with shared_batch(self.gl.ctx, items[0][1], items[0][0].state) as one:
+        with shared_batch(self.gl.ctx, items[0][1], items[0][0].state, held) as one:
             for pass_, fbo, size, draw, textures, entry, own in items:
                 values = Draw(u_job=self._jobs.use(entry)).values()
                 if own:

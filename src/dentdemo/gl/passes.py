@@ -9,8 +9,10 @@ reads (its own, or none, so that the texture's own filter and wrap apply); and i
 tests and modes no pass declares (scissor, stencil, polygon offset, depth clamp, primitive
 restart, logic op, sample coverage and mask, sRGB writes). Afterwards it leaves `neutral` state
 (moderngl's defaults for what it declared, so moderngl's record of the context matches the
-driver), with the bound framebuffer's depth mask. Restoring a host's own state is
-`gl.state.preserved`'s job, at the public entry points; it starts them from `neutral` too."""
+driver), with the bound framebuffer's depth mask. Passes run one after another under
+`held_state` set only what differs from the pass before (and bind only the textures a unit does
+not hold), and the neutral state comes back once, after the last. Restoring a host's own state
+is `gl.state.preserved`'s job, at the public entry points; it starts them from `neutral` too."""
 
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
+from typing import Any
 
 import moderngl
 
@@ -102,31 +105,82 @@ def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
     """Run under `state` (after the pass's framebuffer is bound: binding one applies its own
     colour and depth masks and switches the scissor test off), then leave `neutral` state and
     the bound framebuffer's depth mask."""
-    gl = gl_library()
-    for capability in _OFF:
-        gl.glDisable(capability)
-    flags: int = 0  # none
-    if state.depth_test:
-        flags |= moderngl.DEPTH_TEST
-        ctx.depth_func = state.depth_func
-    if state.cull:
-        flags |= moderngl.CULL_FACE
-        ctx.cull_face = state.cull
-    ctx.front_face = state.front_face
-    if state.blend is not None:
-        flags |= moderngl.BLEND
-        _set_blend(state.blend)
-    ctx.enable_only(flags)  # also switches off rasterizer discard and program point size
-    gl.glDepthMask(int(state.depth_write))
-    ctx.wireframe = state.wireframe
-    for i in range(MAX_CLIP_DISTANCES):
-        (gl.glEnable if i < state.clip_distances else gl.glDisable)(GL_CLIP_DISTANCE0 + i)
-    try:
+    with held_state(ctx) as held:
+        held.apply(state)
         yield
+
+
+class HeldState:
+    """The fixed-function state that a run of passes has set (`held_state`): each pass applies
+    only what differs from what the passes before it set, where each used to set all of it and
+    put back `neutral` after it. What it does not know (at first, or after `forget`) it sets."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self._ctx = ctx
+        #: The value each setting was given, by name; empty: nothing known.
+        self._held: dict[str, object] = {}
+        #: What each texture unit holds, as `shared_batch` bound it (its sampler object too).
+        self.units: dict[int, Sampled] = {}
+
+    def forget(self) -> None:
+        """Something else may have set state since (a host's work between passes)."""
+        self._held.clear()
+        self.units.clear()
+
+    def apply(self, state: PassState) -> None:
+        """Set `state` (after the pass's framebuffer is bound: binding one applies its own
+        colour and depth masks and switches the scissor test off, so the depth mask is set
+        always). A depth function, cull face or blend is left as it was where its test is off."""
+        ctx, gl, held = self._ctx, gl_library(), self._held
+        if not held:
+            for capability in _OFF:
+                gl.glDisable(capability)
+        flags = (
+            (moderngl.DEPTH_TEST if state.depth_test else 0)
+            | (moderngl.CULL_FACE if state.cull else 0)
+            | (moderngl.BLEND if state.blend is not None else 0)
+        )
+        settings: list[tuple[str, object, Callable[[Any], None]]] = [
+            # enable_only also switches off rasterizer discard and program point size.
+            ("flags", flags, ctx.enable_only),
+            (
+                "depth_func",
+                state.depth_func if state.depth_test else None,
+                partial(setattr, ctx, "depth_func"),
+            ),
+            ("cull_face", state.cull, partial(setattr, ctx, "cull_face")),
+            ("front_face", state.front_face, partial(setattr, ctx, "front_face")),
+            ("blend", state.blend, _set_blend),
+            ("wireframe", state.wireframe, partial(setattr, ctx, "wireframe")),
+        ]
+        for i in range(MAX_CLIP_DISTANCES):
+            on = i < state.clip_distances
+            settings.append((f"clip{i}", on, partial(_clip_distance, i)))
+        for name, value, set_ in settings:
+            if value is not None and held.get(name, _UNKNOWN) != value:
+                set_(value)
+                held[name] = value
+        gl.glDepthMask(int(state.depth_write))
+
+
+_UNKNOWN = object()
+
+
+def _clip_distance(i: int, on: bool) -> None:
+    gl = gl_library()
+    (gl.glEnable if on else gl.glDisable)(GL_CLIP_DISTANCE0 + i)
+
+
+@contextmanager
+def held_state(ctx: moderngl.Context) -> Iterator[HeldState]:
+    """Passes run one after another, each applying (`HeldState.apply`) only what differs from
+    the one before; afterwards `neutral` state and the bound framebuffer's depth mask, once."""
+    try:
+        yield HeldState(ctx)
     finally:
         neutral(ctx)
         fbo = ctx.fbo
-        gl.glDepthMask(int(fbo.depth_mask) if fbo is not None else 1)
+        gl_library().glDepthMask(int(fbo.depth_mask) if fbo is not None else 1)
 
 
 def neutral(ctx: moderngl.Context) -> None:
@@ -205,19 +259,24 @@ SharedDraw = Callable[..., None]
 
 @contextmanager
 def shared_batch(
-    ctx: moderngl.Context, fbo: moderngl.Framebuffer, state: PassState
+    ctx: moderngl.Context,
+    fbo: moderngl.Framebuffer,
+    state: PassState,
+    held: HeldState | None = None,
 ) -> Iterator[SharedDraw]:
     """Passes that share `state` (variants of one pass: programs built from one source with
     other defines) run many times, the state applied once: yields `one(pass_, viewport, draw,
     textures, uniforms, into=None)`, each call as `pass_.run` with those arguments into `fbo`,
     or into `into` (bound when it changes). Drawing a map's variants one after the other binds
-    its framebuffer once, where a batch per variant would bind it once per variant."""
+    its framebuffer once, where a batch per variant would bind it once per variant. `held`:
+    the state the passes before it set (`held_state`), which it applies the difference to and
+    leaves set; without, it applies all of it and leaves `neutral` state."""
     bound = [fbo]
     #: What each texture unit holds since the batch bound it, and the viewport set since the
     #: framebuffer was bound (binding one sets its own): a draw sets again only what changed.
     #: The batch's draws alone set either meanwhile. A call that sets the same again is not
     #: free: Mesa marks the state changed, and llvmpipe's draw after it costs more.
-    units: dict[int, Sampled] = {}
+    units: dict[int, Sampled] = held.units if held is not None else {}
     view: list[tuple[int, int, int, int] | None] = [None]
     named: dict[moderngl.Program, tuple[str, ...]] = {}  # the samplers named, by program
 
@@ -255,7 +314,11 @@ def shared_batch(
         draw(prog)
 
     fbo.use()
-    with applied(ctx, state):
+    if held is None:
+        with applied(ctx, state):
+            yield one
+    else:
+        held.apply(state)
         yield one
 
 

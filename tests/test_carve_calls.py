@@ -1,0 +1,110 @@
+"""What a batch asks of GL (docs/carve.md, "The job table", "Batches"): a burst of one ball
+pressed at many spots of a plate draws the ball's swept quads of pass 3 instanced, not one draw a
+hit, and each pass sets only the fixed-function state that differs from the pass before it,
+where each used to set all of it and put it back. Oracle: the counts a burst's hits imply (one
+quad per hit, in draws of at most one uniform-buffer range of the job table each), and the
+capabilities no pass uses switched off a bounded number of times a batch, whatever its passes."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import moderngl
+import numpy as np
+import pytest
+
+from dentdemo.carve.camera import ContactFrame
+from dentdemo.carve.carver import CarveBody, Carver, CarverOptions, Press
+from dentdemo.carve.constants import JOB_ENTRIES
+from dentdemo.gl.library import gl_library
+from dentdemo.gl.passes import _OFF
+from dentdemo.model.shapes import Plate, Sphere
+from surface_helpers import Bodies, press_mesh, translation
+
+DOWN = np.array([0.0, -1.0, 0.0])
+RADIUS = 0.04
+
+
+def _burst(bodies: Bodies, hits: int) -> list[Press]:
+    """One ball body (one map) pressed at `hits` spots of a grid over a 1 m plate, dented
+    itself too."""
+    plate = bodies.make(press_mesh(Plate(1.0), 2), 512)
+    ball = bodies.make(press_mesh(Sphere(RADIUS), 1), 128)
+    side = math.ceil(math.sqrt(hits))
+    presses = []
+    for k in range(hits):
+        x, z = ((k % side) - (side - 1) / 2) * 0.12, ((k // side) - (side - 1) / 2) * 0.12
+        posed = CarveBody(ball.gpu_mesh, ball.maps, translation((x, RADIUS, z)))
+        contact = ContactFrame(np.array([x, 0.0, z]), DOWN)
+        presses.append(Press(plate, posed, contact, 0.004, 0.001))
+    return presses
+
+
+@pytest.mark.parametrize("hits", [1, 16, 36, 64])
+def test_a_bursts_ball_quads_are_drawn_instanced(gl, monkeypatch, hits):
+    """Pass 3 draws the ball of every hit as one quad (QUAD 1): all of them sample the one
+    ball's map, so they are drawn in at most one draw per range of JOB_ENTRIES table entries
+    they span, the instances adding up to one a hit."""
+    bodies = Bodies(gl)
+    carver = Carver(gl, CarverOptions(keep_host_state=False))
+    quads = {carver._surface["peel", True, q].program.glo for q in (1, 2)}
+    renders: list[int] = []
+    real = moderngl.VertexArray.render
+
+    def render(self, mode=None, vertices=-1, *, first=0, instances=-1):  # noqa: ANN001, ANN202
+        if self.program.glo in quads:
+            renders.append(max(instances, 1))
+        return real(self, mode, vertices, first=first, instances=instances)
+
+    try:
+        presses = _burst(bodies, hits)
+        carver.carve_many(presses)  # the vertex arrays made, the variants compiled
+        monkeypatch.setattr(moderngl.VertexArray, "render", render)
+        assert len(carver.carve_many(presses)) == 2 * hits
+        assert sum(renders) == hits  # one quad a hit
+        assert len(renders) <= 1 + (hits - 1) // JOB_ENTRIES + 1  # ranges the entries span
+    finally:
+        carver.release()
+        bodies.release()
+
+
+def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatch):
+    """A batch of 16 hits runs passes 3, 4 and 5 (and pass 2 for every target with
+    `address_every_target`): each capability that no pass uses is switched off at most three
+    times in the batch (the neutral state it starts from, the first pass, the neutral state it
+    leaves), not once or twice a pass, and clip distance 0 is switched on at most once a pass
+    that changes it."""
+    bodies = Bodies(gl)
+    carver = Carver(gl, CarverOptions(keep_host_state=False, address_every_target=True))
+    gl_ = gl_library()
+    calls: Counter[tuple[str, int]] = Counter()
+    plain = type(gl_)
+
+    class Counted(plain):  # type: ignore[valid-type, misc]
+        def __getattribute__(self, name: str):  # noqa: ANN204
+            function = plain.__getattribute__(self, name)
+            if name in ("glEnable", "glDisable"):
+
+                def wrapped(cap, function=function, name=name):  # noqa: ANN001, ANN202
+                    calls[name, int(cap)] += 1
+                    return function(cap)
+
+                return wrapped
+            return function
+
+    try:
+        presses = _burst(bodies, 16)
+        carver.carve_many(presses)
+        gl_.__class__ = Counted
+        try:
+            carver.carve_many(presses)
+        finally:
+            gl_.__class__ = plain
+        for cap in _OFF:
+            assert calls["glDisable", cap] <= 3, hex(cap)
+        # Clip distance 0: on for pass 2 (one), 4 and 5 (six each), off for pass 3 (none).
+        assert calls["glEnable", 0x3000] == 1
+    finally:
+        carver.release()
+        bodies.release()
