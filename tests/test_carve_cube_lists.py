@@ -1,7 +1,8 @@
 """A built-in sphere's triangle lists from its cube atlas in closed form (`carve/cube_lists.py`,
 through `footprint.lists_many`): every triangle whose bounding sphere meets a query's box is in
-its list (worked out here from the definition over every triangle), the list stays near that
-set, and a query gets the same list alone (Python floats) as in a batch (arrays)."""
+its list of cells (worked out here from the definition over every triangle), that list stays
+near that set, the exact list is that set, and a query gets the same lists alone (Python
+floats) as in a batch (arrays)."""
 
 from __future__ import annotations
 
@@ -74,20 +75,22 @@ def _queries(seed: int, count: int):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_a_spheres_lists_hold_every_triangle_that_meets_the_box(seed: int) -> None:
-    """Of 120 boxes, each list holds every triangle whose bounding sphere meets its box, the
-    presses' lists together at most 2.5 times as many, and each one the same in a batch and
-    alone."""
+    """Of 120 boxes, each list of cells holds every triangle whose bounding sphere meets its
+    box, the presses' lists together at most 2.5 times as many; each exact list is just those
+    triangles; and each list is the same in a batch and alone."""
     queries = _queries(seed, 120)
     assert cube_lists.ARRAY_QUERIES <= 60
-    found = lists_many([query for query, _, _ in queries])
+    cells = lists_many([query for query, _, _ in queries], exact=False)
+    exact = lists_many([query for query, _, _ in queries])
     wanted, listed = 0, 0
-    for (query, (mesh, model, origin, axes), press), got in zip(queries, found, strict=True):
-        assert cube_lists.closed_form(mesh)
-        want = _meets(mesh, model, origin, axes, *query[1:])
+    for (query, args, press), got, just in zip(queries, cells, exact, strict=True):
+        assert cube_lists.closed_form(args[0])
+        want = _meets(*args, *query[1:])
         assert np.isin(want, got).all()
         assert len(np.unique(got)) == len(got)  # no triangle twice
+        assert np.array_equal(np.sort(just), want)
         if press:
             wanted, listed = wanted + len(want), listed + len(got)
-        (alone,) = lists_many([query])
-        assert np.array_equal(alone, got)
+        for found, batch in ((lists_many([query], exact=False), got), (lists_many([query]), just)):
+            assert np.array_equal(found[0], batch)
     assert wanted > 10_000 and listed <= 2.5 * wanted

@@ -1,18 +1,17 @@
 """Triangle lists of built-in spheres from their cube-sphere atlas in closed form, for a batch's
-queries at once (`footprint.lists_many`): no cluster search.
+queries at once (`footprint.lists_many`): no cluster or triangle test.
 
 A query asks for the triangles whose bounding sphere meets a box (camera x, y, s, metres:
-`footprint.meeting_many`). A triangle's bounding-sphere centre lies in the box grown by the
-largest such radius and inside the sphere, so its direction from the sphere's centre is the
-central projection of a point of that box; on a cube face whose half-space holds the whole
-box, those directions project into the convex hull of the projected corners (a central
-projection keeps segments straight there). The hull's extent in the face's gnomonic
-coordinates (X = tan(s pi / 4) along the face's a axis, Y along b: `mesh/cube.py`) gives the
-rows and columns of the face's equal-angle cells that hold every such triangle, one cell more
-each side for rounding; a face whose half-space holds part of the box gives all of its cells.
-Those cells' triangles are the candidates; with `exact`, their bounding spheres are then
-tested against the box as `meeting_many` tests them, element by element, so a query's list
-is the same alone and in any batch.
+`footprint.meeting_many`). Such a triangle's bounding-sphere centre lies in the box grown by the
+largest such radius (`Mesh.triangle_reach`), and a centre in a cube face's cells lies at least
+`_near` deep along that face's normal. The part of the grown box that deep is convex and in
+front of the sphere's centre, so the directions of its points project onto the face's plane
+into the convex hull of the projections of its vertices (the box's corners that deep and its
+edges' crossings of that depth). The hull's extent in the face's gnomonic coordinates
+(X = tan(s pi / 4) along the face's a axis, Y along b: `mesh/cube.py`) covers rows and columns
+of the face's equal-angle cells, found among the grid lines' tangents by bisection (exact
+comparisons, the same on floats and arrays); the triangles of those cells are the list: every
+triangle whose bounding sphere meets the box, and the cells' other triangles.
 """
 
 from __future__ import annotations
@@ -45,10 +44,10 @@ def closed_form(mesh: Mesh) -> bool:
     return mesh.laid_as_cube_sphere()
 
 
-def cube_lists(queries: Sequence[Query]) -> list[Indices]:
+def cube_lists(queries: Sequence[Query], exact: bool) -> list[Indices]:
     """The triangles of the cells each query's box projects into (all queries on one built-in
-    sphere mesh): every triangle whose bounding sphere meets the box, and those beside them in
-    the cells' rows and columns."""
+    sphere mesh): every triangle whose bounding sphere meets the box, and the cells' others;
+    with `exact`, only those that meet it (`meeting_many`'s test, on the cells' triangles)."""
     if not queries:
         return []
     mesh = queries[0][0]._mesh
@@ -56,20 +55,41 @@ def cube_lists(queries: Sequence[Query]) -> list[Indices]:
     reach = mesh.triangle_reach()
     solid = mesh.bound.radius  # type: ignore[union-attr]
     if len(queries) < ARRAY_QUERIES:
-        return [
-            _triangles_one(_cells_one(p, [r.x0, r.x1, r.y0, r.y1, lo, hi], reach, solid, n), n)
+        each = [
+            _cells_one(p, [r.x0, r.x1, r.y0, r.y1, lo, hi], reach, solid, n)
             for p, r, (lo, hi) in queries
         ]
-    tris: list[Projected] = [q[0] for q in queries]
-    axes = np.array([p._local_axes for p in tris])  # (q, 3, 3): rows give camera axes
-    offset = np.array([p._offset for p in tris])  # the sphere's centre in camera coordinates
-    scale = np.array([p._scale for p in tris])
-    boxes = np.array([(r.x0, r.x1, r.y0, r.y1, lo, hi) for _, r, (lo, hi) in queries])
-    each: list[list[tuple[int, int, int, int, int]]] = [[] for _ in queries]
-    blocks = _cell_blocks(axes, offset, scale, boxes, reach, solid, n).tolist()
-    for q, face, r0, rows, c0, cols in blocks:
-        each[q].append((face, r0, rows, c0, cols))
-    return [_triangles_one(blocks, n) for blocks in each]
+    else:
+        tris: list[Projected] = [q[0] for q in queries]
+        axes = np.array([p._local_axes for p in tris])  # (q, 3, 3): rows give camera axes
+        offset = np.array([p._offset for p in tris])  # the sphere's centre, camera coordinates
+        scale = np.array([p._scale for p in tris])
+        boxes = np.array([(r.x0, r.x1, r.y0, r.y1, lo, hi) for _, r, (lo, hi) in queries])
+        each = [[] for _ in queries]
+        for q, face, r0, rows, c0, cols in _cell_blocks(
+            axes, offset, scale, boxes, reach, solid, n
+        ).tolist():
+            each[q].append((face, r0, rows, c0, cols))
+    lists = [_triangles_one(blocks, n) for blocks in each]
+    if exact:
+        lists = [_meeting(query, which) for query, which in zip(queries, lists, strict=True)]
+    return lists
+
+
+def _meeting(query: Query, which: Indices) -> Indices:
+    """Those of triangles `which` whose bounding sphere meets the query's box, by
+    `meeting_many`'s arithmetic (the camera coordinates by `Projected._to_camera`)."""
+    projected, rect, (lo, hi) = query
+    centre, radius = projected._mesh.triangle_spheres()
+    x, y, s = projected._to_camera(centre[which]).T
+    r = radius[which] * projected._scale
+    meets = x + r >= rect.x0
+    meets &= x - r <= rect.x1
+    meets &= y + r >= rect.y0
+    meets &= y - r <= rect.y1
+    meets &= s + r >= lo
+    meets &= s - r <= hi
+    return which[meets]
 
 
 def _triangles_one(blocks: list[tuple[int, int, int, int, int]], n: int) -> Indices:
@@ -152,16 +172,17 @@ def _block(
     face: int, points: list[tuple[float, float]], tangents: tuple[float, ...], n: int
 ) -> tuple[int, int, int, int, int] | None:
     """The block of cells of `face` (face, row from, rows, column from, columns) over the
-    gnomonic points (along, across) `points`, one cell more each side; None where they all
-    lie off the face."""
+    gnomonic points (along, across) `points`; None where they all lie off the face."""
     if not points:
         return None
     g0, g1 = min(p[0] for p in points), max(p[0] for p in points)
     h0, h1 = min(p[1] for p in points), max(p[1] for p in points)
     if g1 < -1.0 or g0 > 1.0 or h1 < -1.0 or h0 > 1.0:
         return None
-    r0, r1 = max(bisect_right(tangents, g0) - 2, 0), min(bisect_right(tangents, g1), n - 1)
-    c0, c1 = max(bisect_right(tangents, h0) - 2, 0), min(bisect_right(tangents, h1), n - 1)
+    r0 = max(bisect_right(tangents, g0 - _SLACK) - 1, 0)
+    r1 = min(bisect_right(tangents, g1 + _SLACK) - 1, n - 1)
+    c0 = max(bisect_right(tangents, h0 - _SLACK) - 1, 0)
+    c1 = min(bisect_right(tangents, h1 + _SLACK) - 1, n - 1)
     return face, r0, r1 - r0 + 1, c0, c1 - c0 + 1
 
 
@@ -172,6 +193,10 @@ def _near(radius: float, reach: float) -> float:
     triangle's corners, which lie on the sphere."""
     return 0.999 * (radius - reach) / math.sqrt(3.0)
 
+
+#: How far (gnomonic units) a block reaches past the points it covers, for their rounding: a
+#: triangle's centre lies inside its cell by far more.
+_SLACK = 1e-9
 
 #: A box's edges, as pairs of its corners (corner i: bit 2 - k of i picks axis k's high side).
 _BOX_EDGES = tuple((i, i | bit) for i in range(8) for bit in (4, 2, 1) if not i & bit)
@@ -235,10 +260,10 @@ def _cell_blocks(
         h0, h1 = np.where(held, cols, np.inf).min(1), np.where(held, cols, -np.inf).max(1)
         on = meets & held.any(axis=1) & (g1 >= -1.0) & (g0 <= 1.0) & (h1 >= -1.0) & (h0 <= 1.0)
         (q,) = np.nonzero(on)
-        r0 = np.maximum(np.searchsorted(tangents, g0[q], side="right") - 2, 0)
-        r1 = np.minimum(np.searchsorted(tangents, g1[q], side="right"), n - 1)
-        c0 = np.maximum(np.searchsorted(tangents, h0[q], side="right") - 2, 0)
-        c1 = np.minimum(np.searchsorted(tangents, h1[q], side="right"), n - 1)
+        r0 = np.maximum(np.searchsorted(tangents, g0[q] - _SLACK, side="right") - 1, 0)
+        r1 = np.minimum(np.searchsorted(tangents, g1[q] + _SLACK, side="right") - 1, n - 1)
+        c0 = np.maximum(np.searchsorted(tangents, h0[q] - _SLACK, side="right") - 1, 0)
+        c1 = np.minimum(np.searchsorted(tangents, h1[q] + _SLACK, side="right") - 1, n - 1)
         found.append(np.stack([q, np.full(len(q), face), r0, r1 - r0 + 1, c0, c1 - c0 + 1], 1))
     blocks = np.concatenate(found).astype(np.int64)
     return blocks[np.lexsort((blocks[:, 1], blocks[:, 0]))]

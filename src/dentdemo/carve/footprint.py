@@ -251,47 +251,69 @@ Query = tuple[Projected, Rect, tuple[float, float]]
 def meeting_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
     """`Projected.meeting(rect, slab)` of each query (with `exact` False, the triangles of every
     cluster whose sphere meets the box: a superset, for a GPU that clips and culls faster than
-    the CPU can sort), the box tests of a batch's queries made together: each query's cluster
-    spheres, then those of the triangles of its clusters that pass, are put in camera
-    coordinates and all of them tested against their own query's box in one set of array
-    operations. A query's result does not depend on the others (each row is
-    tested against its own box); numpy's cost per call, much of a query's on a mesh of a few
-    thousand triangles, is paid once a batch for the tests."""
-    if not queries:
-        return []
-    boxes = np.array(
-        [(rect.x0, rect.x1, rect.y0, rect.y1, lo, hi) for _, rect, (lo, hi) in queries]
-    )
-    clusters = [q[0]._clusters for q in queries]
-    near = _split(
-        _meets_boxes(
-            np.concatenate([c[0] for c in clusters]),
-            np.concatenate([c[1] for c in clusters]),
-            boxes,
-            sizes := [len(c[1]) for c in clusters],
-        ),
-        sizes,
-    )
-    if not exact:
-        return [_valid(c[2][groups]) for c, groups in zip(clusters, near, strict=True)]
-    # The triangles of the clusters that pass, whole rows at once (padding is NaN: never meets).
-    members: list[Indices] = []
-    centres: list[Array] = []
-    radii: list[Array] = []
-    for (projected, _, _), (_, _, all_members), groups in zip(queries, clusters, near, strict=True):
-        local, radius = projected._mesh.cluster_members_spheres()
-        members.append(all_members[groups].ravel())
-        centres.append(projected._to_camera(local[groups].reshape(-1, 3)))
-        radii.append(radius[groups].ravel() * projected._scale)
-    sizes = [len(m) for m in members]
-    keep = _split(_meets_boxes(np.concatenate(centres), np.concatenate(radii), boxes, sizes), sizes)
-    return [m[k] for m, k in zip(members, keep, strict=True)]
+    the CPU can sort), the box tests of a batch's queries of one mesh made together: the
+    cluster spheres of every query (queries x clusters), then the triangle spheres of every
+    (query, cluster) pair that passes, are put in their query's camera coordinates and tested
+    against its box, each step one array operation over all of them. A query's result does
+    not depend on the others (each row is posed and tested by its own query's values, element
+    by element)."""
+    found: list[Indices] = [np.zeros(0, dtype=np.int64)] * len(queries)
+    groups: dict[int, list[int]] = {}
+    for k, query in enumerate(queries):
+        groups.setdefault(id(query[0]._mesh), []).append(k)
+    for members in groups.values():
+        chosen = [queries[k] for k in members]
+        for k, listed in zip(members, _meeting_one_mesh(chosen, exact), strict=True):
+            found[k] = listed
+    return found
+
+
+def _meeting_one_mesh(queries: Sequence[Query], exact: bool) -> list[Indices]:
+    """`meeting_many` of queries on one mesh."""
+    mesh = queries[0][0]._mesh
+    centre, radius, members = mesh.clusters()
+    tris = [q[0] for q in queries]
+    axes = np.array([p._local_axes for p in tris])
+    offset = np.array([p._offset for p in tris])
+    scale = np.array([p._scale for p in tris])
+    boxes = np.array([(r.x0, r.x1, r.y0, r.y1, lo, hi) for _, r, (lo, hi) in queries])
+    # Every query's cluster spheres (queries x clusters), posed and tested at once.
+    posed = _to_cameras(axes[:, None], offset[:, None], centre[None])
+    near = _meets_box(posed, radius[None, :] * scale[:, None], boxes[:, None])
+    query, cluster = np.nonzero(near)  # by query, then cluster: each query's in order
+    if exact:
+        # The triangle spheres of the (query, cluster) pairs that pass, whole rows (padding is
+        # NaN: never meets).
+        local, radii = mesh.cluster_members_spheres()
+        posed = _to_cameras(axes[query, None], offset[query, None], local[cluster])
+        keep = _meets_box(posed, radii[cluster] * scale[query, None], boxes[query, None])
+    else:
+        keep = members[cluster] >= 0
+    listed = members[cluster][keep]
+    rows = np.broadcast_to(query[:, None], keep.shape)[keep]
+    ends = np.searchsorted(rows, np.arange(len(queries) + 1))
+    return [listed[ends[k] : ends[k + 1]] for k in range(len(queries))]
+
+
+def _to_cameras(axes: Array, offset: Array, local: Array) -> Array:
+    """Camera coordinates of local points (..., 3) by poses (`Poses`: axes (..., 3, 3), offset
+    (..., 3), broadcast): each coordinate the sum of three products in order, then the offset
+    (a row's bits do not depend on the others)."""
+    return (axes * local[..., None, :]).sum(axis=-1) + offset
+
+
+def _meets_box(centre: Array, radius: Array, box: Array) -> NDArray[np.bool_]:
+    """Whether each sphere (centres (..., 3), radii (...)) meets its box (..., 6: x0, x1, y0,
+    y1, s0, s1, broadcast); NaN never meets."""
+    r = radius[..., None]
+    meets = (centre + r >= box[..., 0::2]) & (centre - r <= box[..., 1::2])
+    return np.asarray(meets.all(axis=-1))
 
 
 def lists_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
     """`meeting_many` of each query, those on a built-in sphere from its cube atlas in closed
     form (`cube_lists`: no cluster search; with `exact` the same triangles, else the
-    triangles of the cells its box projects into, a superset like whole clusters), the
+    triangles of the cells its box projects into, a superset as whole clusters are), the
     others by `meeting_many`; each query's list is the same alone as in any batch."""
     found: list[Indices | None] = [None] * len(queries)
     spheres: dict[int, list[int]] = {}
@@ -303,37 +325,13 @@ def lists_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
         else:
             rest.append(k)
     for members in spheres.values():
-        for k, listed in zip(members, cube_lists([queries[k] for k in members]), strict=True):
+        for k, listed in zip(
+            members, cube_lists([queries[k] for k in members], exact), strict=True
+        ):
             found[k] = listed
     for k, listed in zip(rest, meeting_many([queries[k] for k in rest], exact), strict=True):
         found[k] = listed
     return found  # type: ignore[return-value]
-
-
-def _meets_boxes(centre: Array, radius: Array, boxes: Array, sizes: list[int]) -> NDArray[np.bool_]:
-    """Whether each sphere meets its box (x0, x1, y0, y1, s0, s1): the first sizes[0] spheres
-    the first of `boxes`, and so on; NaN never meets."""
-    # Each bound as one contiguous row of the spheres' count (boxes.T repeated), the tests
-    # folded into one array in place.
-    b = np.repeat(boxes.T, sizes, axis=1)
-    x, y, s = centre[:, 0], centre[:, 1], centre[:, 2]
-    meets = x + radius >= b[0]
-    meets &= x - radius <= b[1]
-    meets &= y + radius >= b[2]
-    meets &= y - radius <= b[3]
-    meets &= s + radius >= b[4]
-    meets &= s - radius <= b[5]
-    return meets
-
-
-def _split(keep: NDArray[np.bool_], sizes: list[int]) -> list[NDArray[np.bool_]]:
-    """`keep` cut into consecutive parts of `sizes`."""
-    out = []
-    start = 0
-    for size in sizes:
-        out.append(keep[start : start + size])
-        start += size
-    return out
 
 
 def _faces_extreme(faces: Array, rect: Rect, lowest: bool) -> float | None:
@@ -406,12 +404,6 @@ def swept_sphere_slab(segment: Array, radius: float, lo: float, hi: float) -> Re
         min(p0[1], p1[1]) - reach,
         max(p0[1], p1[1]) + reach,
     )
-
-
-def _valid(members: NDArray[np.int64]) -> Indices:
-    """The triangle indices of cluster rows (dropping the padding of the last cluster)."""
-    flat = members.ravel()
-    return flat[flat >= 0]
 
 
 def _sphere_rect(centre: Array, radius: Array) -> Rect:
