@@ -108,3 +108,75 @@ def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatc
     finally:
         carver.release()
         bodies.release()
+
+
+@pytest.mark.parametrize("hits", [16, 64])
+def test_a_bursts_texel_rectangles_are_drawn_instanced(gl, monkeypatch, hits):
+    """Passes 4 and 5 draw the ball's chart texels of every hit as rectangles (RECT: the bench's
+    fine ball, rectangles always): one map, so each pass draws them in at most one draw per
+    range of the job table their entries span (JOB_ENTRIES: every other entry is a ball's), and
+    each pass draws at least one rectangle a hit."""
+    from dentdemo.carve.carver import _Switches
+    from dentdemo.carve.texel_passes import RECT
+
+    bodies = Bodies(gl)
+    carver = Carver(
+        gl,
+        CarverOptions(keep_host_state=False),
+        _switches=_Switches(rect_texels_per_triangle=math.inf),
+    )
+    rects = {pass_.program.glo: key[0] for key, pass_ in carver._texel.items() if key[1] == RECT}
+    renders: Counter[str] = Counter()
+    instances: Counter[str] = Counter()
+    real = moderngl.VertexArray.render
+
+    def render(self, mode=None, vertices=-1, *, first=0, instances_=-1, **named):  # noqa: ANN001, ANN003, ANN202
+        count = named.get("instances", instances_)
+        name = rects.get(self.program.glo)
+        if name is not None:
+            renders[name] += 1
+            instances[name] += max(count, 1)
+        return real(self, mode, vertices, first=first, instances=count)
+
+    try:
+        presses = _burst(bodies, hits)
+        carver.carve_many(presses)
+        monkeypatch.setattr(moderngl.VertexArray, "render", render)
+        assert len(carver.carve_many(presses)) == 2 * hits
+        for name in ("gather", "normals"):
+            assert instances[name] >= hits, name
+            assert renders[name] <= math.ceil(2 * hits / JOB_ENTRIES), name
+        assert instances["gather"] == instances["normals"]
+    finally:
+        carver.release()
+        bodies.release()
+
+
+def test_a_batchs_triangle_lists_are_one_upload_a_stream(gl, monkeypatch):
+    """The triangle lists of a batch go to each index stream (a mesh's lists of one pass kind)
+    in one upload, with the job table and the rectangles' table one each: the buffer writes of
+    a batch do not grow with its hits."""
+    bodies = Bodies(gl)
+    carver = Carver(gl, CarverOptions(keep_host_state=False))
+    writes = []
+    real = moderngl.Buffer.write
+
+    def write(self, *args, **named):  # noqa: ANN001, ANN002, ANN003, ANN202
+        writes.append(self)
+        return real(self, *args, **named)
+
+    try:
+        counts = []
+        for hits in (4, 16, 36):
+            presses = _burst(bodies, hits)
+            carver.carve_many(presses)
+            monkeypatch.setattr(moderngl.Buffer, "write", write)
+            writes.clear()
+            carver.carve_many(presses)
+            monkeypatch.setattr(moderngl.Buffer, "write", real)
+            counts.append(len(writes))
+        # The plate's lists as a target and as a tool, the ball's gutter lists, two tables.
+        assert counts[0] == counts[1] == counts[2] <= 6, counts
+    finally:
+        carver.release()
+        bodies.release()

@@ -249,10 +249,10 @@ def test_each_carve_program_is_held_to_its_familys_typed_uniforms(gl):
     from dentdemo.carve.texel_passes import texture_space_passes
 
     passes = texture_space_passes(gl)
-    gather = passes["gather", 2, True, True, True]  # RECT: util/rect.vert's u_rect
+    gather = passes["gather", 2, True, True, True]  # RECT: util/rect.vert's u_rect_first
     check_program(gather.program, TexelUniforms, gather.samplers, "gather")  # as built
-    assert "u_rect" in gather.program
-    with pytest.raises(ShaderError, match=r"gather.*u_rect.*SurfaceUniforms"):
+    assert "u_rect_first" in gather.program
+    with pytest.raises(ShaderError, match=r"gather.*u_rect_first.*SurfaceUniforms"):
         check_program(gather.program, SurfaceUniforms, gather.samplers, "gather")
     with pytest.raises(ShaderError, match="u_tool_depth"):  # its samplers are named by the pass
         check_program(gather.program, TexelUniforms, (), "gather")
@@ -328,10 +328,10 @@ def test_a_uniform_set_again_to_its_value_is_skipped_and_a_new_value_is_not(gl):
 
     prog = texture_space_passes(gl)["normals", 2, False].program
     writes = []
-    member = prog["u_rect"]
-    for value in [(8, 8, 1, 1), (8, 8, 1, 1), (16, 4, 2, 2), (16, 4, 2, 2), (8, 8, 1, 1)]:
-        before = prog.extra.last.get("u_rect")
-        set_uniform(prog, "u_rect", value)
+    member = prog["u_viewport"]
+    for value in [(8.0, 8.0), (8.0, 8.0), (16.0, 4.0), (16.0, 4.0), (8.0, 8.0)]:
+        before = prog.extra.last.get("u_viewport")
+        set_uniform(prog, "u_viewport", value)
         writes.append(before != value)
         assert tuple(member.value) == value  # what GL holds, read back
     assert writes == [True, False, True, False, True]

@@ -123,13 +123,14 @@ def driver_state() -> dict[str, object]:
     state["clear_depth"] = _read(gl.glGetDoublev, ctypes.c_double, _DEPTH_CLEAR_VALUE, 1)
     state["textures"] = _per_unit(gl, _TEXTURE_BINDING_2D)
     state["samplers"] = _per_unit(gl, _SAMPLER_BINDING)
-    # Uniform-buffer binding 0 (the carve binds its job table there by range) and the generic one.
-    block = (ctypes.c_int * 1)()
-    gl.glGetIntegeri_v(_UNIFORM_BUFFER_BINDING, 0, block)
-    span = [(ctypes.c_int64 * 1)() for _ in range(2)]
-    gl.glGetInteger64i_v(_UNIFORM_BUFFER_START, 0, span[0])
-    gl.glGetInteger64i_v(_UNIFORM_BUFFER_SIZE, 0, span[1])
-    state["uniform_block0"] = (block[0], span[0][0], span[1][0])
+    # Uniform-buffer bindings 0 and 1 (the carve binds its tables there by range), the generic one.
+    for binding in (0, 1):
+        block = (ctypes.c_int * 1)()
+        gl.glGetIntegeri_v(_UNIFORM_BUFFER_BINDING, binding, block)
+        span = [(ctypes.c_int64 * 1)() for _ in range(2)]
+        gl.glGetInteger64i_v(_UNIFORM_BUFFER_START, binding, span[0])
+        gl.glGetInteger64i_v(_UNIFORM_BUFFER_SIZE, binding, span[1])
+        state[f"uniform_block{binding}"] = (block[0], span[0][0], span[1][0])
     state["uniform_buffer"] = _read(gl.glGetIntegerv, ctypes.c_int, _UNIFORM_BUFFER_BINDING, 1)
     return state
 
@@ -239,7 +240,8 @@ def hostile_state(ctx: moderngl.Context, filters: tuple[int, int]) -> Iterator[N
     sampler = ctx.sampler(filter=filters)
     textures = [ctx.texture((4, 4), 1) for _ in range(UNITS)]
     block = ctx.buffer(reserve=1024)
-    block.bind_to_uniform_block(0, offset=256, size=512)  # the host's own range at binding 0
+    block.bind_to_uniform_block(0, offset=256, size=512)  # the host's own ranges at bindings 0
+    block.bind_to_uniform_block(1, offset=0, size=256)  # and 1
     target.use()
     ctx.viewport = (3, 5, 41, 37)
     ctx.scissor = (1, 2, 30, 20)

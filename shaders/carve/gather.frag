@@ -16,6 +16,10 @@
 #ifndef EXIT
 #define EXIT 1
 #endif
+#if defined(RECT) && RECT  // drawn instanced (util/rect.vert): the entry from the vertex stage
+flat in int v_job;
+#define JOB v_job
+#endif
 #include "camera.glsl"
 #include "chart.glsl"
 #include "texel.glsl"

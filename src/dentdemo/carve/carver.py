@@ -27,7 +27,7 @@ from dentdemo.carve.camera import (
     collision_cameras,
 )
 from dentdemo.carve.constants import JOB_ENTRIES, NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
-from dentdemo.carve.jobs import JobTable
+from dentdemo.carve.jobs import RECT_ENTRIES, JobTable, RectTable
 from dentdemo.carve.linear import inverse3
 from dentdemo.carve.params import (
     Advance,
@@ -59,7 +59,7 @@ from dentdemo.gl.passes import Blend, HeldState, Pass, PassState, held_state, ne
 from dentdemo.gl.shaders import program
 from dentdemo.gl.state import preserved
 from dentdemo.gpu.maps import SurfaceMaps
-from dentdemo.gpu.mesh import GpuMesh
+from dentdemo.gpu.mesh import GpuMesh, upload
 
 if TYPE_CHECKING:
     from dentdemo.carve.undo import UndoLog
@@ -225,12 +225,13 @@ RECT_TEXELS_PER_TRIANGLE = 3.0
 
 def _texel_draws(
     job: CarveJob, rects: float, quad: Callable[[moderngl.Program], None]
-) -> Iterator[tuple[int, Callable[[moderngl.Program], None], dict[str, object] | None]]:
-    """Passes 4 and 5's draws of `job`'s target: (how it covers texels, draw, its own uniforms)
+) -> Iterator[tuple[int, Callable[[moderngl.Program], None], tuple[int, int, int, int] | None]]:
+    """Passes 4 and 5's draws of `job`'s target: (how it covers texels, draw, its rectangle)
     for its triangles in the footprint (CHART) and those of them on a chart border (GUTTER),
     where there are any. A built-in sphere's chart texels are drawn instead as one rectangle
-    (`quad`, util/rect.vert) per chart the footprint's triangles meet, their texel bounding box
-    there (RECT), where those triangles hold at most `rects` texels of the boxes each."""
+    (`quad`, util/rect.vert; x, y, width, height in texels) per chart the footprint's triangles
+    meet, their texel bounding box there (RECT), where those triangles hold at most `rects`
+    texels of the boxes each."""
     cam, gpu_mesh = job.camera, job.target.gpu_mesh
     count = len(cam.target_texels)
     if not count:
@@ -238,9 +239,8 @@ def _texel_draws(
     boxes = footprint_boxes(job) if rects > 0 and cube_grid(gpu_mesh.mesh) else []
     area = sum((x1 - x0) * (y1 - y0) for x0, y0, x1, y1 in boxes)
     if boxes and area <= rects * count:
-        size = job.target.maps.size
         for x0, y0, x1, y1 in boxes:
-            yield RECT, quad, Rect(u_rect=(x0, y0, x1 - x0, y1 - y0), u_viewport=size).values()
+            yield RECT, quad, (x0, y0, x1 - x0, y1 - y0)
     else:
         yield CHART, gpu_mesh.drawer(cam.target_texels, "texels0"), None
     if len(cam.target_gutter):
@@ -393,8 +393,9 @@ class Carver:
                 self._surface[key] = Pass(name, prog, state, samplers, VARIANT_KEYS)
         self._quad_vaos: dict[int, moderngl.VertexArray] = {}
         self._texel = texture_space_passes(gl)
-        #: The entries of the batch being drawn: job k's target at 2k, its tool at 2k + 1.
+        #: The job table of the batch being drawn (`_camera_stage`), and its texel rectangles.
         self._jobs = JobTable(gl.ctx)
+        self._rects = RectTable(gl.ctx)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
         #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
@@ -482,18 +483,42 @@ class Carver:
             by_map = sorted(enumerate(jobs), key=lambda placed: id(placed[1].target.maps))
             rects, quad = self._switches.rect_texels_per_triangle, self._draw_quad
             draws = [list(_texel_draws(job, rects, quad)) for _, job in by_map]  # 4 and 5 share
+            upload(draw for texel_draws in draws for _, draw, _ in texel_draws)  # one a stream
+            draws = self._rect_table(by_map, draws)
             with self._timed("gather"):
                 self._gather_passes(by_map, draws, held)
             if meanwhile is not None:
                 flush()  # the gathers drawn while the host's work runs
                 meanwhile()
                 held.forget()  # the host's work may have set state, bound textures
-                self._jobs.forget()  # or bound another uniform buffer
+                self._jobs.forget()  # or bound other uniform buffers
+                self._rects.forget()
             with self._timed("normals"):
                 self._normal_passes(by_map, draws, held)
         # And pass 5 now, for the same reason: the host's CPU work after the batch then
         # overlaps it, instead of its first GL call that waits (or its glFinish) starting it.
         flush()
+
+    def _rect_table(
+        self, jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]]
+    ) -> list[list[tuple]]:
+        """Write the batch's texel rectangles (`RectTable`), each with its job's entry in its
+        range of the job table, in the order of `draws` (each job's `_texel_draws`), and give
+        each RECT draw its rectangle's place in the table instead of its box."""
+        rects: list[tuple[int, int, int, int, int]] = []
+        placed = []
+        for (k, _), texel_draws in zip(jobs, draws, strict=True):
+            mine: list[tuple[int, Callable[[moderngl.Program], None], int | None]] = []
+            for kind, draw, box in texel_draws:
+                if box is not None:
+                    rects.append((*box, k % JOB_ENTRIES))
+                    mine.append((kind, draw, len(rects) - 1))
+                else:
+                    mine.append((kind, draw, None))
+            placed.append(mine)
+        if rects:
+            self._rects.write(rects)
+        return placed
 
     def prepare(self, gpu_mesh: GpuMesh) -> None:
         """Make now what this carver's draws of `gpu_mesh`'s triangle lists would make at its
@@ -533,8 +558,9 @@ class Carver:
         }
         first = np.zeros(1, dtype=np.int64)  # any triangle: the empty viewport drops it
         with preserved(self.gl.ctx):
-            self._jobs.forget()
-            self._jobs.use(0)  # a table bound, whatever it holds: no fragment reads it
+            for table in (self._jobs, self._rects):
+                table.forget()
+                table.use(0)  # a table bound, whatever it holds: no fragment reads it
             for name, pass_, subset in draws:
                 fbo, textures = targets[name]
                 draw = gpu_mesh.drawer(first, subset) if subset else self._draw_quad
@@ -586,6 +612,7 @@ class Carver:
     def release(self) -> None:
         self.scratch.release()
         self._jobs.release()
+        self._rects.release()
         release(*self._quad_vaos.values())
 
     def _clear(
@@ -778,6 +805,7 @@ class Carver:
         and lie in one range of the table are one instanced draw (gl_InstanceID: the entry
         after the first)."""
         atlas = (0, 0, *self.scratch.size)
+        upload(draw for items in variants.values() for _, _, draw, _ in items)  # one a stream
         with shared_batch(self.gl.ctx, fbo, _SURFACE_PASSES[name][0], held) as one:
             for variant, items in variants.items():
                 pass_ = self._surface[variant]
@@ -817,10 +845,10 @@ class Carver:
         items: list[tuple] = []
         for (k, job), texel_draws in zip(jobs, draws, strict=True):
             maps = job.target.maps
-            for kind, draw, own in texel_draws:
+            for kind, draw, rect in texel_draws:
                 pass_ = self._texel["normals", kind, False]
                 textures = (maps.height, maps.mask)
-                items.append((pass_, maps.normal_fbo, maps.size, draw, textures, k, own))
+                items.append((pass_, maps.normal_fbo, maps.size, draw, textures, k, rect))
         self._texture_space(items, held)
 
     # -- pass 4 --------------------------------------------------------------------------------
@@ -836,22 +864,54 @@ class Carver:
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
             job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
             swept = bool(job.target_uniforms["u_swept"])
-            for kind, draw, own in texel_draws:
+            for kind, draw, rect in texel_draws:
                 pass_ = self._texel["gather", kind, swept, job.oblique, job.convex]
-                items.append((pass_, maps.height_fbo, maps.size, draw, textures, k, own))
+                items.append((pass_, maps.height_fbo, maps.size, draw, textures, k, rect))
         self._texture_space(items, held)
 
     def _texture_space(self, items: list[tuple], held: HeldState) -> None:
         """Passes of one state drawn over `items` (pass, framebuffer, map size, draw, textures,
-        the entry of the job table, the draw's own uniforms or None) in order, each over the
-        whole of its framebuffer's map. The draws into one map's texels are disjoint (a chart
-        draw keeps the texels in its chart, a gutter draw those outside), so their order
-        changes no texel."""
+        the entry of the job table, the place of its rectangle in the batch's table or None)
+        in order, each over the whole of its framebuffer's map. The draws into one map's texels
+        are disjoint (a chart draw keeps the texels in its chart, a gutter draw those outside),
+        so their order changes no texel; the rectangles of one pass and map are drawn
+        instanced, in their order (overlapping rectangles: the gathers blend MIN, the normal
+        rebuilds of one texel write what the last one gives, as one draw each did), where their
+        entries lie in one range of each table."""
         if not items:
             return
+        pending: list[tuple] = []  # RECT items of one instanced draw
+
+        def fits(item: tuple) -> bool:
+            first, last = pending[0], pending[-1]
+            return (
+                item[0] is first[0]
+                and item[1] is first[1]
+                and item[6] == last[6] + 1
+                and item[6] % RECT_ENTRIES  # in the range of the rectangle before it
+                and item[5] // JOB_ENTRIES == first[5] // JOB_ENTRIES
+            )
+
         with shared_batch(self.gl.ctx, items[0][1], items[0][0].state, held) as one:
-            for pass_, fbo, size, draw, textures, entry, own in items:
-                values = Draw(u_job=self._jobs.use(entry)).values()
-                if own:
-                    values = {**values, **own}
-                one(pass_, (0, 0, *size), draw, textures, values, into=fbo)
+
+            def flush() -> None:
+                if pending:
+                    pass_, fbo, size, _, textures, entry, rect = pending[0]
+                    self._jobs.use(entry)  # the range the rectangles' entries lie in
+                    values = Rect(u_rect_first=self._rects.use(rect), u_viewport=size).values()
+                    draw = partial(self._draw_quad, instances=len(pending))
+                    one(pass_, (0, 0, *size), draw, textures, values, into=fbo)
+                    pending.clear()
+
+            for item in items:
+                pass_, fbo, size, draw, textures, entry, rect = item
+                if rect is None:
+                    if pending and pending[0][1] is not fbo:
+                        flush()
+                    values = Draw(u_job=self._jobs.use(entry)).values()
+                    one(pass_, (0, 0, *size), draw, textures, values, into=fbo)
+                    continue
+                if pending and not fits(item):
+                    flush()
+                pending.append(item)
+            flush()

@@ -137,28 +137,29 @@ def check_layout(prog: moderngl.Program, where: str) -> None:
         block.binding = BINDING
 
 
-class JobTable:
-    """The uniform buffer of a batch's entries: `write` them all at once (fresh storage each
-    time, so no queued draw that reads the last batch's makes the driver wait), then `use` an
-    entry before each draw that reads it: it binds the entry's range when another is bound
-    and gives the index within it, for `u_job`."""
+class RangeTable:
+    """A uniform buffer of a batch's entries of one size, bound by range at `binding`, at most
+    `per_range` entries a range (each range's start aligned as the driver asks): `write` them
+    all at once (fresh storage each time, so no queued draw that reads the last batch's makes
+    the driver wait), then `use` an entry before each draw that reads it: it binds the entry's
+    range when another is bound and gives the index within it."""
 
-    def __init__(self, ctx: moderngl.Context) -> None:
-        self._ctx = ctx
-        layout = entry_layout()
+    def __init__(
+        self, ctx: moderngl.Context, binding: int, entry_bytes: int, per_range: int
+    ) -> None:
         align = max(int(ctx.info.get("GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT", 256)), 16)
+        self._binding, self._per_range = binding, per_range
         #: Bytes of one range, and from one range's start to the next's (aligned).
-        self._range = JOB_ENTRIES * layout.stride
+        self._range = per_range * entry_bytes
         self._step = -(-self._range // align) * align
         self.buffer = ctx.buffer(reserve=self._step)
-        self._bound = -1  # the range bound at BINDING since `write`, or -1
+        self._bound = -1  # the range bound at `binding` since `write`, or -1
 
-    def write(self, entries: Sequence[Mapping[str, object]]) -> None:
-        """Every entry of a batch, in order (entry k is `use(k)`'s)."""
-        layout, pad = entry_layout(), b"\0" * (self._step - self._range)
-        chunks = []
-        for start in range(0, max(len(entries), 1), JOB_ENTRIES):
-            part = b"".join(layout.pack(e) for e in entries[start : start + JOB_ENTRIES])
+    def write_packed(self, entries: Sequence[bytes]) -> None:
+        """Every entry of a batch, packed, in order (entry k is `use(k)`'s)."""
+        pad, chunks = b"\0" * (self._step - self._range), []
+        for start in range(0, max(len(entries), 1), self._per_range):
+            part = b"".join(entries[start : start + self._per_range])
             chunks.append(part + b"\0" * (self._range - len(part)) + pad)
         data = b"".join(chunks)
         self.buffer.orphan(max(len(data), self.buffer.size))
@@ -167,18 +168,50 @@ class JobTable:
 
     def use(self, entry: int) -> int:
         """Bind the range that holds `entry` (unless bound) and return its index there."""
-        chunk, index = divmod(entry, JOB_ENTRIES)
+        chunk, index = divmod(entry, self._per_range)
         if chunk != self._bound:
-            self.buffer.bind_to_uniform_block(BINDING, offset=chunk * self._step, size=self._range)
+            self.buffer.bind_to_uniform_block(
+                self._binding, offset=chunk * self._step, size=self._range
+            )
             self._bound = chunk
         return index
 
     def forget(self) -> None:
-        """Another buffer may be bound at BINDING now (the host's, given back): bind again."""
+        """Another buffer may be bound at the binding now (the host's, given back)."""
         self._bound = -1
 
     def release(self) -> None:
         self.buffer.release()
+
+
+class JobTable(RangeTable):
+    """A batch's job table: `JOB_ENTRIES` entries (`entry_layout`) a range at BINDING; `use`
+    gives the index for `u_job`."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        super().__init__(ctx, BINDING, entry_layout().stride, JOB_ENTRIES)
+
+    def write(self, entries: Sequence[Mapping[str, object]]) -> None:
+        """Every entry of a batch, by uniform name, in order (entry k is `use(k)`'s)."""
+        layout = entry_layout()
+        self.write_packed([layout.pack(entry) for entry in entries])
+
+
+#: The texel rectangles' table (util/rect.vert, RECT_TABLE 1): its block and binding, and the
+#: rectangles a range holds (two ivec4 each: GL 3.3's smallest uniform block holds 512).
+RECT_BLOCK, RECT_BINDING, RECT_ENTRIES = "CarveRects", 1, 512
+_RECT = struct.Struct("<4i4i")
+
+
+class RectTable(RangeTable):
+    """A batch's texel rectangles (passes 4 and 5's RECT draws, instanced): each its texels
+    (x, y, width, height) and its job's entry within the job table's range its draw binds."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        super().__init__(ctx, RECT_BINDING, _RECT.size, RECT_ENTRIES)
+
+    def write(self, rects: Sequence[tuple[int, int, int, int, int]]) -> None:
+        self.write_packed([_RECT.pack(*rect, 0, 0, 0) for rect in rects])
 
 
 def job_table(gl_cache: dict, ctx: moderngl.Context) -> JobTable:

@@ -138,9 +138,10 @@ class Gather(_Group):
 
 @dataclass(frozen=True)
 class Rect(_Group):
-    """util/rect.vert: a rectangle of texels (x, y, width, height) in a map of `u_viewport`."""
+    """util/rect.vert with RECT_TABLE 1: the first of an instanced draw's rectangles of texels in
+    the batch's table (carve/jobs.py, `RectTable`), in a map of `u_viewport` texels."""
 
-    u_rect: tuple[int, int, int, int]
+    u_rect_first: int
     u_viewport: IVec2
 
 

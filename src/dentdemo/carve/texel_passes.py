@@ -5,12 +5,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera
 from dentdemo.carve.constants import shader_defines
-from dentdemo.carve.jobs import job_table
+from dentdemo.carve.jobs import RECT_BINDING, RECT_BLOCK, RECT_ENTRIES, job_table
 from dentdemo.carve.linear import column_scale, inverse3
 from dentdemo.carve.params import (
     Camera,
@@ -79,8 +80,14 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
                     key: int(value) for key, value in zip(names, variant, strict=True)
                 }
                 defines["RING"] = int(name == "normals")  # pass 5 clips to the ring's slab
-                if draw == RECT:  # under the same state as the triangles' draws
-                    defines.update(RECT=1, CLIP_DISTANCES=CLIP_DISTANCES, **sphere_atlas_defines())
+                if draw == RECT:  # under the same state as the triangles' draws; instanced
+                    defines.update(
+                        RECT=1,
+                        RECT_TABLE=1,
+                        RECT_ENTRIES=RECT_ENTRIES,
+                        CLIP_DISTANCES=CLIP_DISTANCES,
+                        **sphere_atlas_defines(),
+                    )
                 prog = program(
                     gl.cache,
                     gl.ctx,
@@ -91,6 +98,9 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
                 )
                 which = (name, draw, *variant)
                 check_program(prog, TexelUniforms, samplers, f"carve pass {which}")
+                rects = prog.get(RECT_BLOCK, None)
+                if isinstance(rects, moderngl.UniformBlock):
+                    rects.binding = RECT_BINDING
                 passes[which] = Pass(name, prog, state, samplers, VARIANT_KEYS)
     gl.cache[key] = passes
     return passes

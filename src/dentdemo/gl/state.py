@@ -79,6 +79,8 @@ DOUBLES = {"clear_depth": (0x0B73, 1)}
 UNIT_BINDINGS = {"texture_2d": 0x8069, "sampler": 0x8919}
 _TEXTURE0 = 0x84C0
 _UNIFORM_BUFFER = 0x8A11
+#: Uniform-buffer bindings kept (the carve's job table at 0, its texel rectangles at 1).
+UNIFORM_BINDINGS = (0, 1)
 _UNIFORM_BUFFER_BINDING, _UNIFORM_BUFFER_START, _UNIFORM_BUFFER_SIZE = 0x8A28, 0x8A29, 0x8A2A
 _TEXTURE_2D = 0x0DE1
 _FRONT_AND_BACK = 0x0408
@@ -117,9 +119,10 @@ class GLState:
     doubles: dict[str, tuple[float, ...]]
     #: Per binding of UNIT_BINDINGS, the object name on each unit.
     units: dict[str, tuple[int, ...]]
-    #: Uniform-buffer binding 0 (the carve's job table): buffer, start and size in bytes (0:
-    #: the whole buffer); and the generic GL_UNIFORM_BUFFER binding, which a range bind sets too.
-    uniform_block0: tuple[int, int, int] = (0, 0, 0)
+    #: Uniform-buffer bindings 0 and 1 (the carve's job and rectangle tables): buffer, start and
+    #: size in bytes (0: the whole buffer) each; and the generic GL_UNIFORM_BUFFER binding,
+    #: which a range bind sets too.
+    uniform_blocks: tuple[tuple[int, int, int], ...] = ()
     uniform_buffer: int = 0
 
 
@@ -141,11 +144,14 @@ def capture() -> GLState:
         for name, pname in UNIT_BINDINGS.items():
             per_unit[name].append(_get("Integer", ctypes.c_int, pname, 1)[0])
     gl.glActiveTexture(integers["active_texture"][0])
-    block0 = (ctypes.c_int * 1)()
-    gl.glGetIntegeri_v(_UNIFORM_BUFFER_BINDING, 0, block0)
-    span = [(ctypes.c_int64 * 1)() for _ in range(2)]
-    gl.glGetInteger64i_v(_UNIFORM_BUFFER_START, 0, span[0])
-    gl.glGetInteger64i_v(_UNIFORM_BUFFER_SIZE, 0, span[1])
+    blocks = []
+    for binding in UNIFORM_BINDINGS:
+        block = (ctypes.c_int * 1)()
+        gl.glGetIntegeri_v(_UNIFORM_BUFFER_BINDING, binding, block)
+        span = [(ctypes.c_int64 * 1)() for _ in range(2)]
+        gl.glGetInteger64i_v(_UNIFORM_BUFFER_START, binding, span[0])
+        gl.glGetInteger64i_v(_UNIFORM_BUFFER_SIZE, binding, span[1])
+        blocks.append((block[0], span[0][0], span[1][0]))
     return GLState(
         enabled,
         integers,
@@ -156,7 +162,7 @@ def capture() -> GLState:
         {name: _get("Float", ctypes.c_float, *spec) for name, spec in FLOATS.items()},
         {name: _get("Double", ctypes.c_double, *spec) for name, spec in DOUBLES.items()},
         {name: tuple(names) for name, names in per_unit.items()},
-        (block0[0], span[0][0], span[1][0]),
+        tuple(blocks),
         _get("Integer", ctypes.c_int, _UNIFORM_BUFFER_BINDING, 1)[0],
     )
 
@@ -199,14 +205,14 @@ def restore(state: GLState) -> None:
         gl.glBindTexture(_TEXTURE_2D, alive("glIsTexture", texture))
         gl.glBindSampler(unit, alive("glIsSampler", sampler))
     gl.glActiveTexture(i["active_texture"][0])
-    buffer, start, size = state.uniform_block0
-    buffer = alive("glIsBuffer", buffer)
-    if buffer and size > 0:
-        gl.glBindBufferRange(
-            _UNIFORM_BUFFER, 0, buffer, ctypes.c_ssize_t(start), ctypes.c_ssize_t(size)
-        )
-    else:
-        gl.glBindBufferBase(_UNIFORM_BUFFER, 0, buffer)
+    for binding, (buffer, start, size) in zip(UNIFORM_BINDINGS, state.uniform_blocks, strict=True):
+        buffer = alive("glIsBuffer", buffer)
+        if buffer and size > 0:
+            gl.glBindBufferRange(
+                _UNIFORM_BUFFER, binding, buffer, ctypes.c_ssize_t(start), ctypes.c_ssize_t(size)
+            )
+        else:
+            gl.glBindBufferBase(_UNIFORM_BUFFER, binding, buffer)
     gl.glBindBuffer(_UNIFORM_BUFFER, alive("glIsBuffer", state.uniform_buffer))
     gl.glDepthMask(ctypes.c_ubyte(state.booleans["depth_mask"][0]))
     gl.glColorMask(*(ctypes.c_ubyte(v) for v in state.booleans["color_mask"]))

@@ -3,7 +3,7 @@ subsets are drawn through, shared by every pass that draws it (the carve's and t
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Iterable
 from functools import cached_property
 
 import moderngl
@@ -37,17 +37,56 @@ class _IndexStream:
         held = self._placed.get(id(triangles))
         if held is not None and held[0] is triangles:
             return held[1]
+        self.place_many([triangles], indices)
+        return self._placed[id(triangles)][1]
+
+    def place_many(self, lists: Iterable[np.ndarray], indices: np.ndarray) -> None:
+        """Write those of `lists` not held yet after one another, in one upload (a batch's
+        lists of one stream: one call, not one a list)."""
+        new = {id(t): t for t in lists if self._placed.get(id(t), (None,))[0] is not t}
+        if not new:
+            return
         # take(): a quarter of the time of indexing with the array (numpy 2).
-        data = indices.take(triangles, axis=0).astype("u4", copy=False).tobytes()
-        if self._end + len(data) > self.capacity:
-            self.buffer.orphan()
+        parts = [indices.take(t, axis=0).astype("u4", copy=False) for t in new.values()]
+        size = 4 * sum(part.size for part in parts)
+        if self._end + size > self.capacity:
+            self.capacity = max(self.capacity, size)  # fresh storage, grown if need be
+            self.buffer.orphan(self.capacity)
             self._end = 0
             self._placed.clear()
         offset = self._end
-        self.buffer.write(data, offset=offset)
-        self._end += len(data)
-        self._placed[id(triangles)] = (triangles, offset // 4)
-        return offset // 4
+        self.buffer.write(np.concatenate(parts).tobytes(), offset=offset)
+        for triangles, part in zip(new.values(), parts, strict=True):
+            self._placed[id(triangles)] = (triangles, offset // 4)
+            offset += 4 * part.size
+        self._end = offset
+
+
+class ListDraw:
+    """A draw of a triangle list through an index stream (`GpuMesh.drawer`): called with a
+    program, it draws; `upload` writes the lists of many such draws first, one upload a stream."""
+
+    __slots__ = ("gpu_mesh", "triangles", "subset")
+
+    def __init__(self, gpu_mesh: GpuMesh, triangles: np.ndarray | None, subset: str) -> None:
+        self.gpu_mesh = gpu_mesh
+        self.triangles = triangles
+        self.subset = subset
+
+    def __call__(self, prog: moderngl.Program) -> None:
+        self.gpu_mesh.draw(prog, self.triangles, self.subset)
+
+
+def upload(draws: Iterable[object]) -> None:
+    """Write the triangle lists of those of `draws` that are `ListDraw`s, one upload for the
+    lists of each mesh's stream (a batch's draws: one call a stream, not one a list)."""
+    streams: dict[tuple[int, str], tuple[GpuMesh, list[np.ndarray]]] = {}
+    for draw in draws:
+        if isinstance(draw, ListDraw) and draw.triangles is not None and len(draw.triangles):
+            key = (id(draw.gpu_mesh), draw.subset)
+            streams.setdefault(key, (draw.gpu_mesh, []))[1].append(draw.triangles)
+    for (_, subset), (gpu_mesh, lists) in streams.items():
+        gpu_mesh.stream(subset).place_many(lists, gpu_mesh.mesh.indices)
 
 
 class GpuMesh:
@@ -116,7 +155,7 @@ class GpuMesh:
                 f if n in used else f"{f[0]}x4"
                 for f, n in zip(self._LAYOUT.split(), self._NAMES, strict=True)
             )
-            ibo = self._stream(subset).buffer if subset else self.ibo
+            ibo = self.stream(subset).buffer if subset else self.ibo
             buffers = [(self.vbo, fmt, *used)]
             if "in_thickness" in prog:  # the gather's bound (see ensure_thickness)
                 buffers.append((self.thickness_vbo, "1f", "in_thickness"))
@@ -132,25 +171,19 @@ class GpuMesh:
             return
         if len(triangles) == 0:
             return
-        first = self._stream(subset).place(triangles, self.mesh.indices)
+        first = self.stream(subset).place(triangles, self.mesh.indices)
         self.vao(prog, subset).render(moderngl.TRIANGLES, vertices=3 * len(triangles), first=first)
 
-    def _stream(self, subset: str) -> _IndexStream:
+    def stream(self, subset: str) -> _IndexStream:
         """The index stream of `subset`, made when first asked for."""
         stream = self._subsets.get(subset)
         if stream is None:
             stream = self._subsets[subset] = _IndexStream(self._ctx, 4 * self.ibo.size)
         return stream
 
-    def drawer(
-        self, triangles: np.ndarray | None, subset: str
-    ) -> Callable[[moderngl.Program], None]:
+    def drawer(self, triangles: np.ndarray | None, subset: str) -> ListDraw:
         """`draw` bound to its triangles, for a pass to call with its program."""
-
-        def draw(prog: moderngl.Program) -> None:
-            self.draw(prog, triangles, subset)
-
-        return draw
+        return ListDraw(self, triangles, subset)
 
     def release(self) -> None:
         release(*self._vaos.values(), *(s.buffer for s in self._subsets.values()))
