@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from bisect import bisect_right
 from collections.abc import Sequence
+from itertools import product
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -33,8 +34,10 @@ if TYPE_CHECKING:
 Array = NDArray[np.float64]
 Indices = NDArray[np.int64]
 
-_NORMAL, _ACROSS, _ALONG = (
-    np.array([face[k] for face in CUBE_FACES], dtype=np.float64) for k in range(3)
+#: Each cube face's normal, a and b axes (`CUBE_FACES`: signed unit axes) as (axis, sign).
+_FACE_AXES = tuple(
+    tuple((max(range(3), key=lambda k: abs(v[k])), float(sum(v))) for v in face)
+    for face in CUBE_FACES
 )
 
 
@@ -128,22 +131,29 @@ def _cells_one(
     if not all(a <= b for a, b in zip(lo, hi, strict=True)):
         return []
     square = scale * scale
+    (r0, r1, r2), (s0, s1, s2), (t0, t1, t2) = rows
     corners = []
-    for i in range(8):
-        c = [(hi[k] if i >> (2 - k) & 1 else lo[k]) - offset[k] for k in range(3)]
+    for x, y, z in product(*zip(lo, hi, strict=True)):  # corner i: bit 2 - k picks axis k's hi
+        x, y, z = x - offset[0], y - offset[1], z - offset[2]
         corners.append(
-            [(rows[0][j] * c[0] + rows[1][j] * c[1] + rows[2][j] * c[2]) / square for j in range(3)]
+            (
+                (r0 * x + s0 * y + t0 * z) / square,
+                (r1 * x + s1 * y + t1 * z) / square,
+                (r2 * x + s2 * y + t2 * z) / square,
+            )
         )
     tangents = grid_tangents(n)
     blocks = []
-    # Most boxes lie well inside one face's pyramid: then no other face's cells are found.
-    middle = [sum(c[j] for c in corners) for j in range(3)]
-    main = max(range(6), key=lambda f: _dot3(CUBE_FACES[f][0], middle))
+    # Most boxes lie well inside one face's pyramid (the one the box's middle points to): then
+    # no other face's cells are found.
+    middle = [sum(c[k] for c in corners) for k in range(3)]
+    axis = max(range(3), key=lambda k: abs(middle[k]))
+    main = 2 * axis + (middle[axis] < 0.0)
     for face in [main] + [f for f in range(6) if f != main]:
-        normal, across_axis, along_axis = CUBE_FACES[face]
-        depth = [_dot3(normal, c) for c in corners]
-        across = [_dot3(across_axis, c) for c in corners]
-        along = [_dot3(along_axis, c) for c in corners]
+        (ni, ns), (ai, as_), (bi, bs) = _FACE_AXES[face]
+        depth = [ns * c[ni] for c in corners]
+        across = [as_ * c[ai] for c in corners]
+        along = [bs * c[bi] for c in corners]
         points = [
             (b / d, a / d)
             for d, a, b in zip(depth, across, along, strict=True)
@@ -207,10 +217,6 @@ _BOX_EDGES = tuple((i, i | bit) for i in range(8) for bit in (4, 2, 1) if not i 
 _WELL_INSIDE = 1.01
 
 
-def _dot3(a: tuple[int, ...], b: list[float]) -> float:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
 def _cell_blocks(
     axes: Array, offset: Array, scale: Array, boxes: Array, reach: float, radius: float, n: int
 ) -> NDArray[np.int64]:
@@ -242,8 +248,8 @@ def _cell_blocks(
     first, second = (np.array(e) for e in zip(*_BOX_EDGES, strict=True))
     found = []
     for face in range(6):
-        depth = _dot(_NORMAL[face], local)
-        across, along = _dot(_ACROSS[face], local), _dot(_ALONG[face], local)
+        (ni, ns), (ai, as_), (bi, bs) = _FACE_AXES[face]
+        depth, across, along = ns * local[ni], as_ * local[ai], bs * local[bi]
         kept = depth >= near
         # Where an edge of the box crosses depth = near (`_cells_one`).
         d0, d1 = depth[:, first], depth[:, second]
@@ -267,9 +273,3 @@ def _cell_blocks(
         found.append(np.stack([q, np.full(len(q), face), r0, r1 - r0 + 1, c0, c1 - c0 + 1], 1))
     blocks = np.concatenate(found).astype(np.int64)
     return blocks[np.lexsort((blocks[:, 1], blocks[:, 0]))]
-
-
-def _dot(a: Array, b: list[Array]) -> Array:
-    """The 3-vector `a` dotted with the vectors whose components are `b`'s arrays, element by
-    element in a fixed order."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]

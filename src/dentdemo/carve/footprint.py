@@ -268,6 +268,11 @@ def meeting_many(queries: Sequence[Query], exact: bool = True) -> list[Indices]:
     return found
 
 
+#: Meshes of at most so many triangles have their exact lists found without clusters: a plate's
+#: few triangles cost less to test than the steps of a cluster search.
+DIRECT_TRIANGLES = 256
+
+
 def _meeting_one_mesh(queries: Sequence[Query], exact: bool) -> list[Indices]:
     """`meeting_many` of queries on one mesh."""
     mesh = queries[0][0]._mesh
@@ -277,6 +282,15 @@ def _meeting_one_mesh(queries: Sequence[Query], exact: bool) -> list[Indices]:
     offset = np.array([p._offset for p in tris])
     scale = np.array([p._scale for p in tris])
     boxes = np.array([(r.x0, r.x1, r.y0, r.y1, lo, hi) for _, r, (lo, hi) in queries])
+    if exact and len(mesh.indices) <= DIRECT_TRIANGLES:
+        # Few triangles: every query's triangle spheres at once, no cluster test first.
+        spheres, radii = mesh.triangle_spheres()
+        posed = _to_cameras(axes[:, None], offset[:, None], spheres[None])
+        query, listed = np.nonzero(
+            _meets_box(posed, radii[None, :] * scale[:, None], boxes[:, None])
+        )
+        ends = np.searchsorted(query, np.arange(len(queries) + 1))
+        return [listed[ends[k] : ends[k + 1]] for k in range(len(queries))]
     # Every query's cluster spheres (queries x clusters), posed and tested at once.
     posed = _to_cameras(axes[:, None], offset[:, None], centre[None])
     near = _meets_box(posed, radius[None, :] * scale[:, None], boxes[:, None])

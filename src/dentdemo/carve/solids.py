@@ -60,9 +60,12 @@ class PoseLanes(NamedTuple):
 
     def arrays(self, mode: Mode) -> Poses:
         """The same values as arrays over the directions."""
+        if mode is lanes.ONE:  # one array of the direction's 14 floats, then views of it
+            flat = np.array(
+                [*self.axes[0], *self.axes[1], *self.axes[2], *self.offset, self.scale, self.handed]
+            )
+            return Poses(flat[:9].reshape(1, 3, 3), flat[9:12][None], flat[12:13], flat[13:14])
         axes, offset = np.array(self.axes, dtype=np.float64), np.array(self.offset)
-        if mode is lanes.ONE:
-            return Poses(axes[None], offset[None], np.array([self.scale]), np.array([self.handed]))
         return Poses(
             np.ascontiguousarray(axes.transpose(2, 0, 1)),
             np.ascontiguousarray(offset.T),
