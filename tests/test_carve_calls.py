@@ -180,3 +180,76 @@ def test_a_batchs_triangle_lists_are_one_upload_a_stream(gl, monkeypatch):
     finally:
         carver.release()
         bodies.release()
+
+
+def _texel_renders(carver: Carver, presses: list[Press], monkeypatch) -> Counter[str]:
+    """The draws of passes 4 and 5 drawn as triangle lists (not rectangles) when `presses` are
+    carved a second time, by pass ("gather", "normals"), and their instances ("... instances")."""
+    from dentdemo.carve.texel_passes import RECT
+
+    lists = {pass_.program.glo: key[0] for key, pass_ in carver._texel.items() if key[1] != RECT}
+    counts: Counter[str] = Counter()
+    real = moderngl.VertexArray.render
+
+    def render(self, mode=None, vertices=-1, first=0, instances=-1):  # noqa: ANN001, ANN202
+        name = lists.get(self.program.glo)
+        if name is not None:
+            counts[name] += 1
+            counts[f"{name} instances"] += max(instances, 1)
+        return real(self, mode, vertices, first=first, instances=instances)
+
+    carver.carve_many(presses)  # the vertex arrays made, the variants compiled
+    monkeypatch.setattr(moderngl.VertexArray, "render", render)
+    try:
+        carver.carve_many(presses)
+    finally:
+        monkeypatch.setattr(moderngl.VertexArray, "render", real)
+    return counts
+
+
+@pytest.mark.parametrize("hits", [16, 64])
+def test_one_maps_texel_lists_are_drawn_instanced(gl, monkeypatch, hits):
+    """Passes 4 and 5 draw the plate's triangles of every hit (each hit's list its own: other
+    triangles of the 2 x 2 plate; the ball's chart texels are rectangles, above) instanced over
+    the hits: at most one draw a kind of list (chart, gutter) per range of JOB_ENTRIES entries
+    the plate's jobs span, where they drew one a hit; every hit an instance."""
+    bodies = Bodies(gl)
+    carver = Carver(gl, CarverOptions(keep_host_state=False))
+    try:
+        counts = _texel_renders(carver, _burst(bodies, hits), monkeypatch)
+        ranges = (hits - 1) // JOB_ENTRIES + 1  # the plate's entries: 0 .. hits - 1
+        for name in ("gather", "normals"):
+            assert counts[f"{name} instances"] >= hits, (name, counts)
+            assert counts[name] <= 2 * ranges, (name, counts)
+    finally:
+        carver.release()
+        bodies.release()
+
+
+def test_a_union_of_lists_dents_as_each_its_own(gl, monkeypatch):
+    """A burst whose plate lists differ from hit to hit, drawn as one instanced draw of their
+    union (each instance clipped to its own footprint), writes the same height and normal bits
+    as each hit's own list drawn alone."""
+    from dentdemo.carve.carver import _Switches
+    from surface_helpers import heights
+
+    maps = []
+    for per_draw in (math.inf, 0.0):  # always the union; never
+        bodies = Bodies(gl)
+        carver = Carver(
+            gl,
+            CarverOptions(keep_host_state=False),
+            _switches=_Switches(union_triangles_per_draw=per_draw),
+        )
+        try:
+            presses = _burst(bodies, 16)
+            counts = _texel_renders(carver, presses, monkeypatch)
+            assert (counts["gather"] <= 4) == (per_draw > 0), counts
+            plate, ball = presses[0].target, presses[0].tool
+            maps.append([(heights(gl, body), gl.read(body.maps.normal)) for body in (plate, ball)])
+            assert (maps[-1][0][0] < -1e-4).sum() > 16 * 20  # every hit dented the plate
+        finally:
+            carver.release()
+            bodies.release()
+    for (ha, na), (hb, nb) in zip(*maps, strict=True):
+        assert np.array_equal(ha, hb) and np.array_equal(na, nb)

@@ -16,10 +16,9 @@
 #ifndef EXIT
 #define EXIT 1
 #endif
-#if defined(RECT) && RECT  // drawn instanced (util/rect.vert): the entry from the vertex stage
+// Drawn instanced (texel.vert, texel.geom, util/rect.vert): the entry from the stage before.
 flat in int v_job;
 #define JOB v_job
-#endif
 #include "camera.glsl"
 #include "chart.glsl"
 #include "texel.glsl"

@@ -5,10 +5,9 @@
 // leak into a chart. Differences per texel become slopes through the texel's metric (texel.glsl).
 // Gutter texels take the normal of the chart texel nearest to them on their triangle.
 #include "../include/common.glsl"
-#if defined(RECT) && RECT  // drawn instanced (util/rect.vert): the entry from the vertex stage
+// Drawn instanced (texel.vert, texel.geom, util/rect.vert): the entry from the stage before.
 flat in int v_job;
 #define JOB v_job
-#endif
 #include "camera.glsl"
 #include "chart.glsl"
 #include "texel.glsl"

@@ -2,6 +2,8 @@
 // Passes 4 and 5, gutter draws: each chart-border triangle becomes its texel bounding box grown by
 // one texel, clipped to the footprint, carrying the whole triangle to the fragment shader, which
 // keeps the gutter texels that overlap the triangle (texel.glsl).
+flat in int g_job[];  // texel.vert: the job table's entry of the instance
+#define JOB g_job[0]
 #include "camera.glsl"
 #include "clip.glsl"
 
@@ -19,6 +21,7 @@ flat out vec2 t_uv[3];      // triangle corners, texel units
 flat out vec3 t_world[3];   // world metres
 flat out vec3 t_normal[3];  // world, vertex normals
 flat out float t_thickness[3];  // world metres
+flat out int v_job;  // the entry, for the fragment stage
 
 void main() {
     vec2 size = vec2(u_map_size);
@@ -35,6 +38,7 @@ void main() {
             t_normal[i] = g_normal[i];
             t_thickness[i] = g_thickness[i];
         }
+        v_job = JOB;
         // The corner's point on the triangle's plane (affine extension), for the clip distances.
         vec2 q = corners[k] - p0;
         float b1 = (q.x * e2.y - q.y * e2.x) / den, b2 = (e1.x * q.y - e1.y * q.x) / den;

@@ -247,6 +247,82 @@ def _texel_draws(
         yield GUTTER, gpu_mesh.drawer(cam.target_gutter, "texels1"), None
 
 
+#: What a draw of passes 4 and 5 costs, in triangles of its list (llvmpipe's main thread shades
+#: the vertices and clips the triangles of every instance): the jobs of one map whose lists
+#: differ are one instanced draw of the union of their lists where that costs no more than a
+#: draw each (docs/carve.md, "Batches").
+UNION_TRIANGLES_PER_DRAW = 128.0
+
+
+def _instanced(
+    jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]], per_draw: float
+) -> tuple[list[tuple[int, CarveJob]], list[list[tuple]]]:
+    """`jobs` (each with its place in the batch, one map's together) and their `_texel_draws`,
+    the triangle-list draws of consecutive jobs that dent one map under one variant (their
+    entries in one range of the job table, no rectangles) made one instanced draw (instance i:
+    entry k + i) where their lists are the same, or where drawing the union of their lists for
+    each costs no more than a draw each (`per_draw` triangles a draw; 0: the same lists only).
+    Each instance clips to its own camera and slab, so another job's triangles add only texels
+    beyond its footprint's margin, which the tool does not reach and whose normals are rebuilt
+    from unchanged heights (`test_a_union_of_lists_dents_as_each_its_own`)."""
+    out_jobs: list[tuple[int, CarveJob]] = []
+    out_draws: list[list[tuple]] = []
+
+    def shape(i: int) -> tuple | None:
+        (k, job), texel_draws = jobs[i], draws[i]
+        if any(rect is not None for _, _, rect in texel_draws):
+            return None  # rectangles: instanced already
+        swept = job.target_uniforms["u_swept"]
+        kinds = tuple(kind for kind, _, _ in texel_draws)
+        return (id(job.target.maps), swept, job.oblique, job.convex, kinds, k // JOB_ENTRIES)
+
+    def emit(members: list[int], lists: Sequence[NDArray[np.int64]]) -> None:
+        k, job = jobs[members[0]]
+        merged = draws[members[0]]
+        if len(members) > 1:
+            gpu_mesh = job.target.gpu_mesh
+            merged = [
+                (kind, gpu_mesh.drawer(triangles, draw.subset, len(members)), None)
+                for (kind, draw, _), triangles in zip(merged, lists, strict=True)
+            ]
+        out_jobs.append((k, job))
+        out_draws.append(merged)
+
+    def close(run: list[int]) -> None:
+        if len(run) == 1:
+            emit(run, ())
+            return
+        lists = [[draw.triangles for _, draw, _ in draws[i]] for i in run]
+        same: list[list[int]] = []  # positions in `run` of consecutive jobs with the same lists
+        for at, mine in enumerate(lists):
+            first = lists[same[-1][0]] if same else None
+            if first is not None and all(map(np.array_equal, first, mine)):
+                same[-1].append(at)
+            else:
+                same.append([at])
+        if len(same) > 1 and per_draw > 0:
+            unions = [np.unique(np.concatenate(parts)) for parts in zip(*lists, strict=True)]
+            drawn = len(run) * sum(len(union) for union in unions)
+            own = sum(len(triangles) for mine in lists for triangles in mine)
+            if drawn <= own + per_draw * (len(same) - 1) * len(unions):
+                emit(run, unions)
+                return
+        for members in same:
+            emit([run[at] for at in members], lists[members[0]])
+
+    run: list[int] = []  # consecutive jobs that may share draws
+    for i, (k, _) in enumerate(jobs):
+        joins = run and k == jobs[run[-1]][0] + 1 and shape(i) is not None
+        if not (joins and shape(i) == shape(run[-1])):
+            if run:
+                close(run)
+            run = []
+        run.append(i)
+    if run:
+        close(run)
+    return out_jobs, out_draws
+
+
 def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
     """Whether any vertex normal of the triangles pass 4 draws (or a swept solid's surface) is
     not the press direction reversed, to float rounding."""
@@ -350,6 +426,9 @@ class _Switches:
     rect_texels_per_triangle: float = RECT_TEXELS_PER_TRIANGLE
     #: Bound the camera by whole bodies instead of the footprint (tests of the bound).
     loose_camera: bool = False
+    #: Draw the lists of one map's jobs as one instanced draw of their union where that costs
+    #: at most this many triangles a draw saved (0: only jobs whose lists are the same).
+    union_triangles_per_draw: float = UNION_TRIANGLES_PER_DRAW
 
 
 class Carver:
@@ -471,6 +550,9 @@ class Carver:
         by the map they write. The undo log (if any) records `record` (every hit of the call:
         one entry, the maps before all of it) before the first gather writes; `meanwhile` (if
         any) runs once the gathers are flushed, before the normal rebuilds."""
+        # One map's jobs together, so that their entries of the job table are consecutive (the
+        # order changes no texel: gathers blend MIN, overlapping normal rebuilds write the same).
+        jobs = sorted(jobs, key=lambda job: id(job.target.maps))
         with held_state(self.gl.ctx) as held:  # each pass sets what differs from the last
             self._camera_stage(jobs, held)  # writes the batch's job table
             # Hand passes 3 and 2 to the rasteriser now: a software one draws them while the
@@ -479,10 +561,13 @@ class Carver:
             flush()
             if record is not None and self._options.undo_log is not None:
                 self._options.undo_log.record(record)  # binds framebuffers only
-            # One map's draws together; each job with its place in the batch (its entries).
-            by_map = sorted(enumerate(jobs), key=lambda placed: id(placed[1].target.maps))
+            # Each job with its place in the batch (its entries); one map's jobs are together.
+            by_map = list(enumerate(jobs))
             rects, quad = self._switches.rect_texels_per_triangle, self._draw_quad
             draws = [list(_texel_draws(job, rects, quad)) for _, job in by_map]  # 4 and 5 share
+            for _, job in by_map:
+                job.target.gpu_mesh.ensure_thickness(job.camera.target_texels)  # gutter's in it
+            by_map, draws = _instanced(by_map, draws, self._switches.union_triangles_per_draw)
             upload(draw for texel_draws in draws for _, draw, _ in texel_draws)  # one a stream
             draws = self._rect_table(by_map, draws)
             with self._timed("gather"):
@@ -860,9 +945,8 @@ class Carver:
         same), each map's framebuffer bound once."""
         items: list[tuple] = []
         for (k, job), texel_draws in zip(jobs, draws, strict=True):
-            cam, maps = job.camera, job.target.maps
+            maps = job.target.maps
             textures = (self.scratch.address, self.scratch.tool_depth, maps.mask)
-            job.target.gpu_mesh.ensure_thickness(cam.target_texels)  # the gutter's are in it
             swept = bool(job.target_uniforms["u_swept"])
             for kind, draw, rect in texel_draws:
                 pass_ = self._texel["gather", kind, swept, job.oblique, job.convex]

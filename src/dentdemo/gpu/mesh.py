@@ -63,18 +63,22 @@ class _IndexStream:
 
 
 class ListDraw:
-    """A draw of a triangle list through an index stream (`GpuMesh.drawer`): called with a
-    program, it draws; `upload` writes the lists of many such draws first, one upload a stream."""
+    """A draw of a triangle list through an index stream (`GpuMesh.drawer`), `instances` times
+    (gl_InstanceID 0 ..): called with a program, it draws; `upload` writes the lists of many
+    such draws first, one upload a stream."""
 
-    __slots__ = ("gpu_mesh", "triangles", "subset")
+    __slots__ = ("gpu_mesh", "triangles", "subset", "instances")
 
-    def __init__(self, gpu_mesh: GpuMesh, triangles: np.ndarray | None, subset: str) -> None:
+    def __init__(
+        self, gpu_mesh: GpuMesh, triangles: np.ndarray | None, subset: str, instances: int = 1
+    ) -> None:
         self.gpu_mesh = gpu_mesh
         self.triangles = triangles
         self.subset = subset
+        self.instances = instances
 
     def __call__(self, prog: moderngl.Program) -> None:
-        self.gpu_mesh.draw(prog, self.triangles, self.subset)
+        self.gpu_mesh.draw(prog, self.triangles, self.subset, self.instances)
 
 
 def upload(draws: Iterable[object]) -> None:
@@ -162,17 +166,25 @@ class GpuMesh:
             self._vaos[key] = self._ctx.vertex_array(prog, buffers, ibo)
         return self._vaos[key]
 
-    def draw(self, prog: moderngl.Program, triangles: np.ndarray | None, subset: str) -> None:
+    def draw(
+        self,
+        prog: moderngl.Program,
+        triangles: np.ndarray | None,
+        subset: str,
+        instances: int = 1,
+    ) -> None:
         """Draw triangles `triangles` (indices into the mesh's triangles; None: all) with `prog`
         through the index stream named `subset` (see `_IndexStream`: a list is uploaded once,
-        12 bytes a triangle, no read, and drawn again from where it lies)."""
+        12 bytes a triangle, no read, and drawn again from where it lies), `instances` times."""
         if triangles is None:
-            self.vao(prog).render(moderngl.TRIANGLES)
+            self.vao(prog).render(moderngl.TRIANGLES, instances=instances)
             return
         if len(triangles) == 0:
             return
         first = self.stream(subset).place(triangles, self.mesh.indices)
-        self.vao(prog, subset).render(moderngl.TRIANGLES, vertices=3 * len(triangles), first=first)
+        self.vao(prog, subset).render(
+            moderngl.TRIANGLES, vertices=3 * len(triangles), first=first, instances=instances
+        )
 
     def stream(self, subset: str) -> _IndexStream:
         """The index stream of `subset`, made when first asked for."""
@@ -181,9 +193,9 @@ class GpuMesh:
             stream = self._subsets[subset] = _IndexStream(self._ctx, 4 * self.ibo.size)
         return stream
 
-    def drawer(self, triangles: np.ndarray | None, subset: str) -> ListDraw:
+    def drawer(self, triangles: np.ndarray | None, subset: str, instances: int = 1) -> ListDraw:
         """`draw` bound to its triangles, for a pass to call with its program."""
-        return ListDraw(self, triangles, subset)
+        return ListDraw(self, triangles, subset, instances)
 
     def release(self) -> None:
         release(*self._vaos.values(), *(s.buffer for s in self._subsets.values()))
