@@ -648,3 +648,57 @@ def test_a_carver_is_configured_once_by_frozen_options(gl):
     press = Press("target", "tool", "contact", 0.004)  # type: ignore[arg-type]
     assert press.depth == 0.004 and press.tool_depth == 0.0
     assert tuple(press) == ("target", "tool", "contact", 0.004, 0.0)
+
+
+def _peel_atlas(gl, carver: Carver, presses) -> tuple[np.ndarray, int, int]:
+    """Pass 3 of `presses` as one batch: the scratch atlas's tool-extent pixels (its bits), the
+    jobs, and the draws of mesh tools (TILED or not)."""
+    from dentdemo.gl.state import preserved
+
+    (batch,) = carver.scratch.pack(carver.plan_many(presses))
+    runs = carver._camera_runs("peel", list(enumerate(batch)), iter(range(len(batch), 99999)))
+    meshes = sum(1 for run in runs if not run.variant[2])
+    with preserved(gl.ctx):
+        carver._camera_stage(batch)
+    return gl.read(carver.scratch.tool_depth).view(np.uint32), len(batch), meshes
+
+
+@pytest.mark.parametrize("case", ["plate on balls", "tilted boxes"])
+def test_an_instanced_mesh_peel_writes_what_its_own_viewport_did(gl, case):
+    """Pass 3 of mesh tools drawn instanced, each job placed in its tile by the vertex stage and
+    clipped to the tile's pixel edges (surface.vert TILED 1; the plate's lists differ from hit to
+    hit: their union, each instance dropping the others' triangles) writes the same bits in
+    every pixel of the atlas as a draw a job with its tile as the viewport."""
+    bodies = Bodies(gl)
+    try:
+        plate = bodies.make(press_mesh(Plate(1.0), 2), 512)
+        presses = []
+        for k, (x, z) in enumerate(SPOTS * 2):
+            x, z = x + 0.013 * k, z - 0.007 * k
+            if case == "plate on balls":  # the ball dented by the plate: the plate is a tool
+                tool = bodies.make(press_mesh(Sphere(0.04), 1), 128) if k == 0 else presses[0][1]
+                posed = type(tool)(tool.gpu_mesh, tool.maps, translation((x, 0.04, z)))
+                direction = DOWN
+            else:
+                tool = bodies.make(press_mesh(Box((0.05, 0.03, 0.04)), 2), 128)
+                posed = tool
+                posed.model = translation((x, 0.02, z)) @ rotation((0, 1, 0), 10.0 * k)
+                direction = tilt(np.array([0.0, 1.0, 0.0]), 20.0)
+            contact = ContactFrame(np.array([x, 0.0, z]), direction)
+            presses.append((plate, posed, contact, 0.003, 0.002))
+        found = []
+        for tiled in (True, False):
+            carver = Carver(gl, _switches=_Switches(tiled_peel=tiled))
+            try:
+                found.append(_peel_atlas(gl, carver, presses))
+            finally:
+                carver.release()
+        (tiled_bits, jobs, tiled_draws), (own_bits, _, own_draws) = found
+        assert jobs == 4 * len(SPOTS)
+        # A mesh tool a hit (the plate on the ball), or two (each box's own, and the plate).
+        assert own_draws == (jobs // 2 if case == "plate on balls" else jobs)
+        assert tiled_draws < own_draws
+        assert (tiled_bits[:, :, 1] != 0).sum() > 1000  # covered pixels
+        assert np.array_equal(tiled_bits, own_bits)
+    finally:
+        bodies.release()

@@ -39,6 +39,8 @@ struct CarveEntry {
     ivec2 map_size;        // surface-map texels (columns, rows)
     int cube_grid;         // a sphere drawn as rectangles: cells along each cube-face edge
     bool clip;             // passes 4, 5: false: the whole map (creation, import)
+    ivec4 list_skip;       // pass 3, a tool drawn with the union of its jobs' lists: bit i
+                           //   (of 128) set where triangle i of the list is another job's
 };
 layout(std140) uniform CarveJobs {
     CarveEntry u_entries[JOB_ENTRIES];
@@ -78,4 +80,5 @@ uniform int u_job;  // this draw's entry in the range bound (its first instance'
 #define u_map_size u_entries[JOB].map_size
 #define u_cube_grid u_entries[JOB].cube_grid
 #define u_clip u_entries[JOB].clip
+#define u_list_skip u_entries[JOB].list_skip
 #endif

@@ -8,7 +8,7 @@
 // tool is), alpha the nearest front face (MIN). Pass 4 compares the back with every target texel
 // at the texel's own centre; pass 2 drops target surfaces in front of the front. Where the tool is
 // absent: (NO_TOOL, NO_TOOL, -, NO_FRONT).
-#if QUAD  // drawn instanced (quad.vert): the entry comes from the vertex stage
+#if QUAD || TILED  // drawn instanced (quad.vert, peel.geom): the entry from the stage before
 flat in int v_job;
 #define JOB v_job
 #endif

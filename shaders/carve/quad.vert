@@ -9,7 +9,8 @@
 #include "camera.glsl"
 #include "swept.glsl"
 
-out float gl_ClipDistance[1];  // pass 2 enables one (its near clip is done per fragment here)
+out float gl_ClipDistance[CLIP_DISTANCES];  // every carve pass enables them: none clips
+                                           // (pass 2's near clip is done per fragment here)
 flat out int v_job;            // the entry this instance reads
 
 void main() {
@@ -24,5 +25,5 @@ void main() {
     // Atlas pixels, then the atlas's NDC: the tile's edges are whole pixels, exact in float32.
     vec2 pixel = vec2(u_tile) + (ndc * 0.5 + 0.5) * vec2(u_resolution);
     gl_Position = vec4(pixel / ATLAS * 2.0 - 1.0, 0.0, 1.0);
-    gl_ClipDistance[0] = 1.0;
+    for (int k = 0; k < CLIP_DISTANCES; ++k) gl_ClipDistance[k] = 1.0;
 }

@@ -30,16 +30,19 @@ from dentdemo.carve.constants import JOB_ENTRIES, NO_FRONT, NO_SURFACE, NO_TOOL,
 from dentdemo.carve.jobs import RECT_ENTRIES, JobTable, RectTable
 from dentdemo.carve.linear import inverse3
 from dentdemo.carve.params import (
+    SUBSET_TRIANGLES,
     Advance,
     Draw,
     Gather,
     Quad,
     Rect,
+    Subset,
     SurfaceUniforms,
     check_program,
 )
 from dentdemo.carve.texel_passes import (
     CHART,
+    CLIP_DISTANCES,
     GUTTER,
     RECT,
     VARIANT_KEYS,
@@ -365,6 +368,61 @@ def _from_neutral(ctx: moderngl.Context) -> Iterator[None]:
     yield
 
 
+class _Run(NamedTuple):
+    """Pass 2 or 3's draw of consecutive entries of the job table (`Carver._camera_runs`)."""
+
+    variant: tuple
+    #: Its first entry; instance i reads entry first + i.
+    first: int
+    #: (k, job, triangle list or None, textures) of each instance.
+    items: list[tuple]
+    draw: Callable[[moderngl.Program], None]
+    #: Each instance's `Subset` bits (the union's triangles that are another's), or None.
+    skips: list[tuple[int, int, int, int] | None]
+    #: The tile of a draw with its tile as the viewport; None: the atlas (placed in its tile
+    #: by the vertex stage).
+    viewport: tuple[int, int, int, int] | None
+
+
+class _Joining:
+    """The run `Carver._camera_runs` is building: whether the next item may be drawn as one
+    more instance of it (the next entry, in the range of the one before it, sampling the same
+    map; a mesh's list the same as the run's, or their union within SUBSET_TRIANGLES)."""
+
+    def __init__(self, entry: int, item: tuple) -> None:
+        self.members: list[tuple] = [(entry, item)]
+        self.same = True  # every list of the run is the first's
+        first = item[2]
+        small = first is not None and len(first) <= SUBSET_TRIANGLES
+        self.union: set[int] | None = set(first.tolist()) if small else None
+
+    def join(self, entry: int, item: tuple) -> bool:
+        """Add `item` where it may be drawn with the run; False (and nothing added) otherwise."""
+        last_entry, last = self.members[-1]
+        if entry != last_entry + 1 or entry % JOB_ENTRIES == 0 or item[3][0] is not last[3][0]:
+            return False
+        mine, first = item[2], self.members[0][1]
+        if mine is not None:  # a mesh: the same mesh, and the same list or a small union
+            if item[1].tool.gpu_mesh is not first[1].tool.gpu_mesh:
+                return False
+            if not (self.same and np.array_equal(mine, first[2])):
+                union = None if self.union is None else self.union.union(mine.tolist())
+                if union is None or len(union) > SUBSET_TRIANGLES:
+                    return False
+                self.union, self.same = union, False
+        self.members.append((entry, item))
+        return True
+
+
+def _skip_bits(mine: NDArray[np.int64], count: int) -> tuple[int, int, int, int]:
+    """`Subset`'s bits: set for each of `count` triangles of a list but those at `mine`."""
+    skip = np.ones(SUBSET_TRIANGLES, dtype=bool)
+    skip[count:] = False
+    skip[mine] = False
+    words = np.packbits(skip, bitorder="little").view("<i4")
+    return (int(words[0]), int(words[1]), int(words[2]), int(words[3]))
+
+
 #: Poses whose uniforms the carver keeps (a burst's bodies; cleared when full).
 POSES_KEPT = 256
 
@@ -376,14 +434,16 @@ _QUADS = ((True, Quad.SPHERE), (True, Quad.CAPSULE))
 _PEEL_BLEND = Blend(
     moderngl.ONE, moderngl.ONE, moderngl.ONE, moderngl.ONE, moderngl.MAX, moderngl.MIN
 )
-#: Passes 2 and 3: fixed-function state and the textures each samples.
+#: Passes 2 and 3: fixed-function state and the textures each samples. Every carve pass enables
+#: the same clip distances (unused ones are 1), so none is switched between passes.
 _SURFACE_PASSES = {
-    # The target's front faces from the slab's near side on (one clip distance: u_near_clip).
+    # The target's front faces from the slab's near side on (clip distance 0: u_near_clip).
     "address": (
-        PassState(depth_test=True, depth_func="<", cull="back", clip_distances=1),
+        PassState(depth_test=True, depth_func="<", cull="back", clip_distances=CLIP_DISTANCES),
         ("u_height", "u_tool"),
     ),
-    "peel": (PassState(blend=_PEEL_BLEND), ("u_height",)),  # the tool's faces, both sides
+    # The tool's faces, both sides (a mesh's clipped to its tile: TILED).
+    "peel": (PassState(blend=_PEEL_BLEND, clip_distances=CLIP_DISTANCES), ("u_height",)),
 }
 
 
@@ -429,6 +489,10 @@ class _Switches:
     #: Draw the lists of one map's jobs as one instanced draw of their union where that costs
     #: at most this many triangles a draw saved (0: only jobs whose lists are the same).
     union_triangles_per_draw: float = UNION_TRIANGLES_PER_DRAW
+    #: Place a mesh tool in its tile in pass 3's vertex stage (surface.vert TILED 1), so that the
+    #: jobs that draw one tool mesh are one instanced draw (False: a draw each, with its tile
+    #: as the viewport).
+    tiled_peel: bool = True
 
 
 class Carver:
@@ -463,6 +527,8 @@ class Carver:
                         SWEPT=int(swept),
                         QUAD=int(quad),
                         PLANE=int(name == "peel"),
+                        TILED=int(name == "peel" and not quad and _switches.tiled_peel),
+                        CLIP_DISTANCES=CLIP_DISTANCES,
                         ATLAS=f"vec2{tuple(float(side) for side in self.scratch.size)}",
                         **atlas,
                     ),
@@ -829,34 +895,42 @@ class Carver:
         after one clear of the tiles' bounding box; pass 2 only for the targets that may hide
         part of themselves (not `convex`), unless `address_every_target`. Writes the batch's
         job table first: job k's target entry is k, the tools' entries follow in pass 3's
-        draw order (so that the quads of one variant and map are one instanced draw). `held`:
+        draw order (so that the draws of one variant and map are one instanced draw). `held`:
         the state the batch's passes set so far (`gl.passes.held_state`), or None: each pass
         sets its own and leaves `neutral` state."""
         scratch = self.scratch
         indexed = list(enumerate(jobs))
-        peel = self._camera_draws("peel", indexed)
-        tools = [job.tool_uniforms for items in peel.values() for _, job, *_ in items]
+        peel = self._camera_runs("peel", indexed, iter(range(len(jobs), 2 * len(jobs))))
+        tools = [
+            {**job.tool_uniforms, **({} if skip is None else Subset(skip).values())}
+            for run in peel
+            for (_, job, *_), skip in zip(run.items, run.skips, strict=True)
+        ]
         self._jobs.write([_target_entry(job) for job in jobs] + tools)
-        entries = iter(range(len(jobs), len(jobs) + len(tools)))
         with self._timed("peel"):
             self._clear(scratch.peel_fbo, (NO_TOOL, NO_TOOL, 0.0, NO_FRONT, 1.0), jobs)
-            self._camera_passes("peel", scratch.peel_fbo, peel, entries, held)
+            self._camera_passes("peel", scratch.peel_fbo, peel, held)
         every = self._options.address_every_target
         hiding = [(k, job) for k, job in indexed if every or not job.convex]
         if hiding:
             with self._timed("address"):
                 cleared = [job for _, job in hiding]
                 self._clear(scratch.address_fbo, (NO_SURFACE, NO_SURFACE, 0.0, 0.0, 1.0), cleared)
-                address = self._camera_draws("address", hiding)
-                targets = (k for items in address.values() for k, *_ in items)
-                self._camera_passes("address", scratch.address_fbo, address, targets, held)
+                address = self._camera_runs("address", hiding)
+                self._camera_passes("address", scratch.address_fbo, address, held)
 
-    def _camera_draws(
-        self, name: str, jobs: list[tuple[int, CarveJob]]
-    ) -> dict[tuple, list[tuple]]:
-        """Pass 2's ("address": each job's target) or 3's ("peel": its tool) draws of `jobs`
-        (each with its place in the batch) by variant: (k, job, draw, the textures it samples,
-        the quad's or None), a variant's quads by the height map they sample."""
+    def _camera_runs(
+        self, name: str, jobs: list[tuple[int, CarveJob]], entries: Iterator[int] | None = None
+    ) -> list[_Run]:
+        """Pass 2's ("address": each job's target, its entry k) or 3's ("peel": its tool,
+        `entries` in draw order) draws of `jobs` (each with its place in the batch k), as runs
+        drawn as one draw each. A swept solid's quads (quad.vert) and a mesh tool's triangles
+        (surface.vert TILED 1) are placed in their tiles by the vertex stage, so the jobs of
+        one variant that sample one map and whose entries are consecutive in one range of the
+        table are one instanced draw: the quads of one variant and map; a mesh tool's lists
+        where they are the same, or where their union holds at most SUBSET_TRIANGLES (each
+        instance then drops the others' triangles, `Subset`). Other draws are one a job, with
+        its tile as the viewport."""
         inputs = (self.scratch.tool_depth,) if name == "address" else ()
         tool = name == "peel"
         variants: dict[tuple, list[tuple]] = {}
@@ -866,52 +940,58 @@ class Carver:
             uniforms = job.tool_uniforms if tool else job.target_uniforms
             kind = uniforms.get("u_quad", 0)
             quad = kind if self._switches.swept_quads and isinstance(kind, int) else 0
-            draw = None if quad else body.gpu_mesh.drawer(triangles, name)
-            item = (k, job, draw, (body.maps.height, *inputs))
+            item = (k, job, None if quad else triangles, (body.maps.height, *inputs))
             variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)
-        for (_, _, quad), items in variants.items():
-            if quad:  # one instanced draw per map sampled (the sort is stable)
+        runs: list[_Run] = []
+        for variant, items in variants.items():
+            quad, tiled = variant[2], variant[2] or (tool and self._switches.tiled_peel)
+            if tiled:  # one instanced draw per map sampled (the sort is stable)
                 items.sort(key=lambda item: id(item[3][0]))
-        return variants
+            run: _Joining | None = None
+            for item in items:
+                entry = item[0] if entries is None else next(entries)
+                if run is None or not (tiled and run.join(entry, item)):
+                    if run is not None:
+                        runs.append(self._run_of(variant, run, name))
+                    run = _Joining(entry, item)
+            if run is not None:
+                runs.append(self._run_of(variant, run, name))
+        return runs
+
+    def _run_of(self, variant: tuple, run: _Joining, name: str) -> _Run:
+        """The draw of `run` (consecutive entries of one variant)."""
+        first, (_, job, triangles, _) = run.members[0]
+        items = [item for _, item in run.members]
+        count = len(items)
+        if variant[2]:  # quads
+            draw: Callable = partial(self._draw_quad, instances=count)
+            return _Run(variant, first, items, draw, [None] * count, None)
+        gpu_mesh = (job.tool if name == "peel" else job.target).gpu_mesh
+        if not (name == "peel" and self._switches.tiled_peel):
+            return _Run(
+                variant, first, items, gpu_mesh.drawer(triangles, name), [None], job.viewport
+            )
+        skips: list[tuple[int, int, int, int] | None] = [None] * count
+        if not run.same:
+            lists = [item[2] for item in items]
+            triangles = np.unique(np.concatenate(lists))
+            skips = [_skip_bits(np.searchsorted(triangles, mine), len(triangles)) for mine in lists]
+        return _Run(variant, first, items, gpu_mesh.drawer(triangles, name, count), skips, None)
 
     def _camera_passes(
-        self,
-        name: str,
-        fbo: moderngl.Framebuffer,
-        variants: dict[tuple, list[tuple]],
-        entries: Iterator[int],
-        held: HeldState | None,
+        self, name: str, fbo: moderngl.Framebuffer, runs: list[_Run], held: HeldState | None
     ) -> None:
-        """Pass 2 or 3's draws (`_camera_draws`) by each job's collision camera into its tile
-        of `fbo` (cleared by the batch), sampling the body's own height map (pass 2 also pass
-        3's result); the state applied once, each variant's draws together. `entries`: each
-        draw's entry of the job table, in order. A swept solid's quads (quad.vert) are placed
-        in their tiles by the vertex stage, so the quads of one variant that sample one map
-        and lie in one range of the table are one instanced draw (gl_InstanceID: the entry
-        after the first)."""
+        """Pass 2 or 3's runs (`_camera_runs`) by each job's collision camera into its tile of
+        `fbo` (cleared by the batch), sampling the body's own height map (pass 2 also pass 3's
+        result); the state applied once, each run one draw (instanced: gl_InstanceID is the
+        entry after the first)."""
         atlas = (0, 0, *self.scratch.size)
-        upload(draw for items in variants.values() for _, _, draw, _ in items)  # one a stream
+        upload(run.draw for run in runs)  # one a stream
         with shared_batch(self.gl.ctx, fbo, _SURFACE_PASSES[name][0], held) as one:
-            for variant, items in variants.items():
-                pass_ = self._surface[variant]
-                if not variant[2]:
-                    for (_, job, draw, textures), entry in zip(items, entries, strict=False):
-                        one(pass_, job.viewport, draw, textures, {"u_job": self._jobs.use(entry)})
-                    continue
-                runs: list[tuple[int, list[tuple]]] = []  # (first entry, its items)
-                for item, entry in zip(items, entries, strict=False):
-                    first, run = runs[-1] if runs else (-1, [])
-                    if (
-                        entry == first + len(run)
-                        and entry % JOB_ENTRIES  # in the range of the entry before it
-                        and item[3][0] is run[-1][3][0]  # the same map
-                    ):
-                        run.append(item)
-                    else:
-                        runs.append((entry, [item]))
-                for first, run in runs:
-                    draw = partial(self._draw_quad, instances=len(run))
-                    one(pass_, atlas, draw, run[0][3], {"u_job": self._jobs.use(first)})
+            for run in runs:
+                uniforms = {"u_job": self._jobs.use(run.first)}
+                viewport = atlas if run.viewport is None else run.viewport
+                one(self._surface[run.variant], viewport, run.draw, run.items[0][3], uniforms)
 
     def _draw_quad(self, prog: moderngl.Program, instances: int = 1) -> None:
         """quad.vert's (or util/rect.vert's) four corners (no vertex data), `instances` times."""

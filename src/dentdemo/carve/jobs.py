@@ -36,6 +36,7 @@ _TYPES: dict[str, tuple[int, int, str]] = {
     "vec2": (8, 8, "2f"),
     "ivec2": (8, 8, "2i"),
     "vec3": (12, 16, "3f"),
+    "ivec4": (16, 16, "4i"),
     "mat3": (48, 16, "12s4x12s4x12s4x"),
     "mat4": (64, 16, "64s"),
 }
@@ -49,6 +50,7 @@ _ZERO: dict[str, tuple[object, ...]] = {
     "vec2": (0.0, 0.0),
     "ivec2": (0, 0),
     "vec3": (0.0, 0.0, 0.0),
+    "ivec4": (0, 0, 0, 0),
     "mat3": (b"\0" * 12,) * 3,
     "mat4": (b"\0" * 64,),
 }
@@ -94,7 +96,7 @@ class EntryLayout:
                 if not isinstance(value, bytes) or len(value) != 36:
                     raise TypeError(f"{name}: a mat3 as 36 bytes, column-major float32")
                 flat += (value[0:12], value[12:24], value[24:36])
-            elif kind in ("vec2", "ivec2", "vec3"):
+            elif kind in ("vec2", "ivec2", "vec3", "ivec4"):
                 flat += value  # type: ignore[arg-type]  # a vector: a sequence
             elif kind == "bool":
                 flat.append(1 if value else 0)

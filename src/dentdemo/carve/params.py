@@ -152,9 +152,22 @@ class Draw(_Group):
     u_job: int
 
 
+@dataclass(frozen=True)
+class Subset(_Group):
+    """peel.geom (TILED 1): the triangles of an instanced draw's list (the union of its jobs'
+    lists, at most `SUBSET_TRIANGLES`) that are not this job's: bit i of the four ints (32
+    each) set where triangle i is another's; none set: every triangle is its own."""
+
+    u_list_skip: tuple[int, int, int, int]
+
+
+#: Triangles a list may hold to be drawn for jobs of which each has some of them (`Subset`).
+SUBSET_TRIANGLES = 128
+
+
 #: The groups a job's entry in the batch's job table holds (carve/jobs.py): what every draw of
 #: a job (or of its body) shares. `Draw` and `Rect` stay plain uniforms, one or two a draw.
-ENTRY_GROUPS: tuple[type, ...] = (Camera, Pose, Swept, Advance, Clip, Gather)
+ENTRY_GROUPS: tuple[type, ...] = (Camera, Pose, Swept, Advance, Clip, Gather, Subset)
 
 
 class _Family:
@@ -175,11 +188,12 @@ class _Family:
 class SurfaceUniforms(_Family):
     """Passes 2 and 3 (surface.vert or quad.vert; address.frag, peel.frag)."""
 
-    GROUPS: ClassVar[tuple[type, ...]] = (Camera, Pose, Swept, Advance, Draw)
+    GROUPS: ClassVar[tuple[type, ...]] = (Camera, Pose, Swept, Advance, Subset, Draw)
     camera: Camera
     pose: Pose
     swept: Swept | None = None
     advance: Advance | None = None
+    subset: Subset | None = None
 
 
 @dataclass(frozen=True)
