@@ -538,6 +538,9 @@ class Carver:
                 self._surface[key] = Pass(name, prog, state, samplers, VARIANT_KEYS)
         self._quad_vaos: dict[int, moderngl.VertexArray] = {}
         self._texel = texture_space_passes(gl)
+        #: The texture units the passes sample (0 .. this - 1).
+        passes = (*self._surface.values(), *self._texel.values())
+        self._units = max(len(pass_.samplers) for pass_ in passes)
         #: The job table of the batch being drawn (`_camera_stage`), and its texel rectangles.
         self._jobs = JobTable(gl.ctx)
         self._rects = RectTable(gl.ctx)
@@ -595,8 +598,12 @@ class Carver:
         waits for all queued work). It runs (once) also when no hit has a direction."""
         placed: list[CarveJob] = []
         if any(hits):
-            kept = preserved if self._options.keep_host_state else _from_neutral
-            with kept(self.gl.ctx):  # the host's GL state, as it left it (or not: the app's)
+            if self._options.keep_host_state:  # the host's GL state, as it left it
+                # (the batches bind only the units their passes sample, and end neutral)
+                kept = preserved(self.gl.ctx, self._units, leaves_neutral=True)
+            else:  # or not: the app's
+                kept = _from_neutral(self.gl.ctx)
+            with kept:
                 for batch in self.scratch.pack([hit for hit in hits if hit]):
                     self._run(batch, None if placed else hits, None if placed else meanwhile)
                     placed += batch
@@ -619,7 +626,8 @@ class Carver:
         # One map's jobs together, so that their entries of the job table are consecutive (the
         # order changes no texel: gathers blend MIN, overlapping normal rebuilds write the same).
         jobs = sorted(jobs, key=lambda job: id(job.target.maps))
-        with held_state(self.gl.ctx) as held:  # each pass sets what differs from the last
+        # Each pass sets what differs from the last; the batch starts from `neutral` state.
+        with held_state(self.gl.ctx, neutral=True, units=self._units) as held:
             self._camera_stage(jobs, held)  # writes the batch's job table
             # Hand passes 3 and 2 to the rasteriser now: a software one draws them while the
             # CPU goes on (the undo log's snapshot, the gathers' draws), instead of when the

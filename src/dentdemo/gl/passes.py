@@ -75,8 +75,8 @@ ALPHA_BLEND = Blend(
     moderngl.SRC_ALPHA,
     moderngl.ONE_MINUS_SRC_ALPHA,
 )
-#: moderngl's default factors and equation, put back after a pass that blends.
-_DEFAULT_BLEND = ALPHA_BLEND
+#: moderngl's default factors and equation, put back after a pass that blends (`neutral`).
+DEFAULT_BLEND = ALPHA_BLEND
 
 
 @dataclass(frozen=True)
@@ -113,57 +113,104 @@ def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
 class HeldState:
     """The fixed-function state that a run of passes has set (`held_state`): each pass applies
     only what differs from what the passes before it set, where each used to set all of it and
-    put back `neutral` after it. What it does not know (at first, or after `forget`) it sets."""
+    put back `neutral` after it. What it does not know (at first, or after `forget`) it sets;
+    `neutral` True: the run starts from `neutral` state (on texture units 0 .. `units` - 1),
+    so only what a pass sets otherwise is set, and only that is put back at its end."""
 
-    def __init__(self, ctx: moderngl.Context) -> None:
+    def __init__(
+        self, ctx: moderngl.Context, neutral: bool = False, units: int = TEXTURE_UNITS
+    ) -> None:
         self._ctx = ctx
-        #: The value each setting was given, by name; empty: nothing known.
-        self._held: dict[str, object] = {}
+        #: The value each setting was given, by name ("off": `_OFF` switched off); empty:
+        #: nothing known.
+        self._held: dict[str, object] = dict(_NEUTRAL) if neutral else {}
         #: What each texture unit holds, as `shared_batch` bound it (its sampler object too).
         self.units: dict[int, Sampled] = {}
+        #: The units known to have no sampler object bound (`bind` need not unbind one).
+        self.bare: set[int] = set(range(units)) if neutral else set()
+        self._units = units
+        #: The depth mask as last set (binding a framebuffer sets its own), or None: unknown.
+        self.depth_mask: bool | None = None
 
     def forget(self) -> None:
         """Something else may have set state since (a host's work between passes)."""
         self._held.clear()
         self.units.clear()
+        self.bare.clear()
+        self.depth_mask = None
 
-    def apply(self, state: PassState) -> None:
+    def apply(self, state: PassState, depth: bool = True) -> None:
         """Set `state` (after the pass's framebuffer is bound: binding one applies its own
-        colour and depth masks and switches the scissor test off, so the depth mask is set
-        always). A depth function, cull face or blend is left as it was where its test is off."""
-        ctx, gl, held = self._ctx, gl_library(), self._held
-        if not held:
+        colour and depth masks and switches the scissor test off; `depth` False: it has no
+        depth buffer, so the depth mask is left as binding it set it). A depth function, cull
+        face or blend is left as it was where its test is off."""
+        held = self._held
+        if "off" not in held:
             for capability in _OFF:
-                gl.glDisable(capability)
+                gl_library().glDisable(capability)
+            held["off"] = True
         flags = (
             (moderngl.DEPTH_TEST if state.depth_test else 0)
             | (moderngl.CULL_FACE if state.cull else 0)
             | (moderngl.BLEND if state.blend is not None else 0)
         )
-        settings: list[tuple[str, object, Callable[[Any], None]]] = [
-            # enable_only also switches off rasterizer discard and program point size.
-            ("flags", flags, ctx.enable_only),
-            (
-                "depth_func",
-                state.depth_func if state.depth_test else None,
-                partial(setattr, ctx, "depth_func"),
-            ),
-            ("cull_face", state.cull, partial(setattr, ctx, "cull_face")),
-            ("front_face", state.front_face, partial(setattr, ctx, "front_face")),
-            ("blend", state.blend, _set_blend),
-            ("wireframe", state.wireframe, partial(setattr, ctx, "wireframe")),
-        ]
-        for i in range(MAX_CLIP_DISTANCES):
-            on = i < state.clip_distances
-            settings.append((f"clip{i}", on, partial(_clip_distance, i)))
-        for name, value, set_ in settings:
+        values: dict[str, object] = {
+            "flags": flags,
+            "depth_func": state.depth_func if state.depth_test else None,
+            "cull_face": state.cull,
+            "front_face": state.front_face,
+            "blend": state.blend,
+            "wireframe": state.wireframe,
+            **{f"clip{i}": i < state.clip_distances for i in range(MAX_CLIP_DISTANCES)},
+        }
+        self._set(values)
+        if depth:
+            self.set_depth_mask(state.depth_write)
+
+    def set_depth_mask(self, on: bool) -> None:
+        if self.depth_mask is not on:
+            gl_library().glDepthMask(int(on))
+            self.depth_mask = on
+
+    def _set(self, values: dict[str, object]) -> None:
+        """Set each of `values` (None: leave it) that differs from what is held."""
+        held = self._held
+        for name, value in values.items():
             if value is not None and held.get(name, _UNKNOWN) != value:
-                set_(value)
+                _SETTERS[name](self._ctx, value)
                 held[name] = value
-        gl.glDepthMask(int(state.depth_write))
+
+    def leave(self) -> None:
+        """Put back `neutral` state: what differs from it where everything is known (the run
+        started from it and nothing was forgotten), else all of it."""
+        if not all(name in self._held for name in _NEUTRAL):
+            neutral(self._ctx)
+            return
+        self._set(_NEUTRAL)
+        for unit in range(self._units):
+            if unit not in self.bare:
+                self._ctx.clear_samplers(unit, unit + 1)
 
 
 _UNKNOWN = object()
+
+
+def _clip_setter(i: int) -> Callable[[moderngl.Context, bool], None]:
+    return lambda ctx, on: _clip_distance(i, on)
+
+
+#: How each setting `HeldState` keeps is set: setter(ctx, value) (through the context's own
+#: methods, looked up at each call, as `bench.glcount` counts them).
+_SETTERS: dict[str, Callable[[moderngl.Context, Any], None]] = {
+    # enable_only also switches off rasterizer discard and program point size.
+    "flags": lambda ctx, flags: ctx.enable_only(flags),
+    "depth_func": lambda ctx, func: setattr(ctx, "depth_func", func),
+    "cull_face": lambda ctx, face: setattr(ctx, "cull_face", face),
+    "front_face": lambda ctx, face: setattr(ctx, "front_face", face),
+    "blend": lambda ctx, blend: _set_blend(blend),
+    "wireframe": lambda ctx, on: setattr(ctx, "wireframe", on),
+    **{f"clip{i}": _clip_setter(i) for i in range(MAX_CLIP_DISTANCES)},
+}
 
 
 def _clip_distance(i: int, on: bool) -> None:
@@ -172,15 +219,33 @@ def _clip_distance(i: int, on: bool) -> None:
 
 
 @contextmanager
-def held_state(ctx: moderngl.Context) -> Iterator[HeldState]:
+def held_state(
+    ctx: moderngl.Context, neutral: bool = False, units: int = TEXTURE_UNITS
+) -> Iterator[HeldState]:
     """Passes run one after another, each applying (`HeldState.apply`) only what differs from
-    the one before; afterwards `neutral` state and the bound framebuffer's depth mask, once."""
+    the one before; afterwards `neutral` state and the bound framebuffer's depth mask, once.
+    `neutral` True: they start from `neutral` state (on units 0 .. `units` - 1: the passes
+    bind no other), and only what they changed is put back."""
+    held = HeldState(ctx, neutral, units)
     try:
-        yield HeldState(ctx)
+        yield held
     finally:
-        neutral(ctx)
+        held.leave()
         fbo = ctx.fbo
-        gl_library().glDepthMask(int(fbo.depth_mask) if fbo is not None else 1)
+        held.set_depth_mask(bool(fbo.depth_mask) if fbo is not None else True)
+
+
+#: `neutral` state as `HeldState` keeps it.
+_NEUTRAL: dict[str, object] = {
+    "off": True,
+    "flags": 0,
+    "depth_func": "<",
+    "cull_face": "back",
+    "front_face": "ccw",
+    "blend": DEFAULT_BLEND,
+    "wireframe": False,
+    **{f"clip{i}": False for i in range(MAX_CLIP_DISTANCES)},
+}
 
 
 def neutral(ctx: moderngl.Context) -> None:
@@ -198,7 +263,7 @@ def neutral(ctx: moderngl.Context) -> None:
     ctx.depth_func = "<"
     ctx.cull_face = "back"
     ctx.front_face = "ccw"
-    _set_blend(_DEFAULT_BLEND)
+    _set_blend(DEFAULT_BLEND)
     ctx.wireframe = False
     ctx.clear_samplers(0, TEXTURE_UNITS)
 
@@ -277,6 +342,7 @@ def shared_batch(
     #: The batch's draws alone set either meanwhile. A call that sets the same again is not
     #: free: Mesa marks the state changed, and llvmpipe's draw after it costs more.
     units: dict[int, Sampled] = held.units if held is not None else {}
+    bare: set[int] = held.bare if held is not None else set()
     view: list[tuple[int, int, int, int] | None] = [None]
     named: dict[moderngl.Program, tuple[str, ...]] = {}  # the samplers named, by program
 
@@ -292,7 +358,9 @@ def shared_batch(
             raise ValueError(f"pass {pass_.name!r} has other state than its shared batch")
         if into is not None and into is not bound[0]:
             into.use()  # applies its own masks: the pass's depth mask again
-            gl_library().glDepthMask(int(state.depth_write))
+            mask.depth_mask = bool(into.depth_mask)
+            if into.depth_attachment is not None:
+                mask.set_depth_mask(state.depth_write)
             bound[0] = into
             view[0] = None
         prog = pass_.program
@@ -300,7 +368,7 @@ def shared_batch(
             raise ValueError(f"pass {pass_.name!r} samples {len(pass_.samplers)} textures")
         for unit, sampled in enumerate(textures):
             if not _same(units.get(unit), sampled):
-                bind(ctx, sampled, unit)
+                bind(ctx, sampled, unit, bare)
                 units[unit] = sampled
         if named.get(prog) != pass_.samplers:  # its samplers named to their units (GL keeps)
             for unit, name in enumerate(pass_.samplers):
@@ -314,11 +382,16 @@ def shared_batch(
         draw(prog)
 
     fbo.use()
+    depth = fbo.depth_attachment is not None
     if held is None:
-        with applied(ctx, state):
+        with held_state(ctx) as mask:
+            mask.depth_mask = bool(fbo.depth_mask)  # binding it set its own
+            mask.apply(state, depth)
             yield one
     else:
-        held.apply(state)
+        mask = held
+        mask.depth_mask = bool(fbo.depth_mask)
+        mask.apply(state, depth)
         yield one
 
 
@@ -329,12 +402,18 @@ def _same(held: Sampled | None, sampled: Sampled) -> bool:
     return held is sampled
 
 
-def bind(ctx: moderngl.Context, sampled: Sampled, unit: int) -> None:
-    """Bind a texture to `unit` with its sampler object, or with none (the host's is unbound)."""
+def bind(ctx: moderngl.Context, sampled: Sampled, unit: int, bare: set[int] | None = None) -> None:
+    """Bind a texture to `unit` with its sampler object, or with none (the host's is unbound,
+    unless `bare`, the units known to have none, holds `unit`; `bare` is kept up to date)."""
     if isinstance(sampled, tuple):
         texture, sampler = sampled
         texture.use(unit)
         sampler.use(unit)
+        if bare is not None:
+            bare.discard(unit)
     else:
         sampled.use(unit)
-        ctx.clear_samplers(unit, unit + 1)
+        if bare is None or unit not in bare:
+            ctx.clear_samplers(unit, unit + 1)
+        if bare is not None:
+            bare.add(unit)

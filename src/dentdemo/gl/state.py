@@ -18,7 +18,7 @@ import moderngl
 
 from dentdemo.gl.context import check_current, parking_framebuffer
 from dentdemo.gl.library import gl_library as _gl
-from dentdemo.gl.passes import TEXTURE_UNITS, neutral
+from dentdemo.gl.passes import DEFAULT_BLEND, TEXTURE_UNITS
 
 # Capabilities a pass or a host may switch (glEnable / glDisable).
 CAPABILITIES = {
@@ -85,6 +85,7 @@ _UNIFORM_BUFFER_BINDING, _UNIFORM_BUFFER_START, _UNIFORM_BUFFER_SIZE = 0x8A28, 0
 _TEXTURE_2D = 0x0DE1
 _FRONT_AND_BACK = 0x0408
 _LINE = 0x1B01
+_FILL = 0x1B02
 #: moderngl's names for GL's values (the strings its setters take).
 _COMPARE_NAMES = {
     0x0200: "0",
@@ -133,13 +134,14 @@ def _get(getter: str, ctype: type[ctypes._SimpleCData[Any]], pname: int, count: 
     return tuple(out[:count])
 
 
-def capture() -> GLState:
-    """The current context's state (it must be current)."""
+def capture(units: int = TEXTURE_UNITS) -> GLState:
+    """The current context's state (it must be current), with the bindings of texture units
+    0 .. `units` - 1."""
     gl = _gl()
     enabled = {name: bool(gl.glIsEnabled(cap)) for name, cap in CAPABILITIES.items()}
     integers = {name: _get("Integer", ctypes.c_int, *spec) for name, spec in INTEGERS.items()}
     per_unit: dict[str, list[int]] = {name: [] for name in UNIT_BINDINGS}
-    for unit in range(TEXTURE_UNITS):
+    for unit in range(units):
         gl.glActiveTexture(_TEXTURE0 + unit)
         for name, pname in UNIT_BINDINGS.items():
             per_unit[name].append(_get("Integer", ctypes.c_int, pname, 1)[0])
@@ -167,23 +169,90 @@ def capture() -> GLState:
     )
 
 
-def restore(state: GLState) -> None:
-    """Put `state` back in the current context."""
-    gl = _gl()
+#: What `neutral` sets, as GL reports it: the capabilities it switches off, and the values it
+#: gives the integer state it sets.
+_NEUTRAL_OFF = frozenset(CAPABILITIES) - {"multisample"}
+_NEUTRAL_INTEGERS = {
+    "depth_func": (0x0201,),  # GL_LESS
+    "cull_face_mode": (0x0405,),  # GL_BACK
+    "front_face": (0x0901,),  # GL_CCW
+}
+_BLEND = (
+    "blend_src_rgb",
+    "blend_dst_rgb",
+    "blend_src_alpha",
+    "blend_dst_alpha",
+    "blend_equation_rgb",
+    "blend_equation_alpha",
+)
+_NEUTRAL_BLEND = (
+    DEFAULT_BLEND.src_rgb,
+    DEFAULT_BLEND.dst_rgb,
+    DEFAULT_BLEND.src_alpha,
+    DEFAULT_BLEND.dst_alpha,
+    DEFAULT_BLEND.equation_rgb,
+    DEFAULT_BLEND.equation_alpha,
+)
+#: The capabilities `_record` sets exactly (through moderngl's enable flags).
+_RECORDED = frozenset(_FLAGS)
+#: Those `neutral` switches off directly (the enable flags go through moderngl).
+_DIRECT_OFF = tuple(name for name in CAPABILITIES if name in _NEUTRAL_OFF and name not in _FLAGS)
+
+
+def _blend(state: GLState) -> tuple[int, ...]:
+    return tuple(state.integers[name][0] for name in _BLEND)
+
+
+def to_neutral(ctx: moderngl.Context, state: GLState) -> None:
+    """`passes.neutral` from `state` (the current state, as `capture` read it), setting only
+    what differs (on the units `state` holds)."""
+    gl, i = _gl(), state.integers
+    if any(state.enabled[name] for name in _FLAGS):
+        ctx.enable_only(0)  # none (through moderngl: its record)
+    for name in _DIRECT_OFF:
+        if state.enabled[name]:
+            gl.glDisable(CAPABILITIES[name])
+    if i["depth_func"] != _NEUTRAL_INTEGERS["depth_func"]:
+        ctx.depth_func = "<"
+    if i["cull_face_mode"] != _NEUTRAL_INTEGERS["cull_face_mode"]:
+        ctx.cull_face = "back"
+    if i["front_face"] != _NEUTRAL_INTEGERS["front_face"]:
+        ctx.front_face = "ccw"
+    if _blend(state) != _NEUTRAL_BLEND:
+        gl.glBlendFuncSeparate(*_NEUTRAL_BLEND[:4])
+        gl.glBlendEquationSeparate(*_NEUTRAL_BLEND[4:])
+    if i["polygon_mode"][0] != _FILL:
+        ctx.wireframe = False
+    for unit, sampler in enumerate(state.units["sampler"]):
+        if sampler:
+            ctx.clear_samplers(unit, unit + 1)
+
+
+def restore(state: GLState, from_neutral: bool = False) -> None:
+    """Put `state` back in the current context (after `_record`, which sets part of it through
+    moderngl). `from_neutral`: the context is in `passes.neutral` state but for what `_record`
+    set, so only what differs from that is set (and the bindings of the units `state` holds)."""
+    gl, i = _gl(), state.integers
     for name, cap in CAPABILITIES.items():
-        (gl.glEnable if state.enabled[name] else gl.glDisable)(cap)
-    i = state.integers
-    gl.glDepthFunc(i["depth_func"][0])
-    gl.glCullFace(i["cull_face_mode"][0])
-    gl.glFrontFace(i["front_face"][0])
-    gl.glBlendFuncSeparate(
-        i["blend_src_rgb"][0],
-        i["blend_dst_rgb"][0],
-        i["blend_src_alpha"][0],
-        i["blend_dst_alpha"][0],
-    )
-    gl.glBlendEquationSeparate(i["blend_equation_rgb"][0], i["blend_equation_alpha"][0])
-    gl.glViewport(*i["viewport"])
+        on = state.enabled[name]
+        if from_neutral and (name in _RECORDED or (not on and name in _NEUTRAL_OFF)):
+            # `_record`'s polygon offset and scissor switch these (a scissor of None: off).
+            if not name.startswith("polygon_offset") and name != "scissor_test":
+                continue
+        (gl.glEnable if on else gl.glDisable)(cap)
+    if not from_neutral:  # else `_record` set them, exactly
+        gl.glDepthFunc(i["depth_func"][0])
+        gl.glCullFace(i["cull_face_mode"][0])
+        gl.glFrontFace(i["front_face"][0])
+        gl.glViewport(*i["viewport"])
+    if not (from_neutral and _blend(state) == _NEUTRAL_BLEND):
+        gl.glBlendFuncSeparate(
+            i["blend_src_rgb"][0],
+            i["blend_dst_rgb"][0],
+            i["blend_src_alpha"][0],
+            i["blend_dst_alpha"][0],
+        )
+        gl.glBlendEquationSeparate(i["blend_equation_rgb"][0], i["blend_equation_alpha"][0])
     gl.glScissor(*i["scissor_box"])
 
     def alive(test: str, name: int) -> int:
@@ -198,7 +267,8 @@ def restore(state: GLState) -> None:
     gl.glBindBuffer(0x8892, alive("glIsBuffer", i["array_buffer"][0]))  # GL_ARRAY_BUFFER
     gl.glPixelStorei(0x0CF5, i["unpack_alignment"][0])
     gl.glPixelStorei(0x0D05, i["pack_alignment"][0])
-    gl.glPolygonMode(_FRONT_AND_BACK, i["polygon_mode"][0])
+    if not (from_neutral and i["polygon_mode"][0] in (_LINE, _FILL)):  # `_record`'s wireframe
+        gl.glPolygonMode(_FRONT_AND_BACK, i["polygon_mode"][0])
     bindings = zip(state.units["texture_2d"], state.units["sampler"], strict=True)
     for unit, (texture, sampler) in enumerate(bindings):
         gl.glActiveTexture(_TEXTURE0 + unit)
@@ -245,15 +315,22 @@ def _record(ctx: moderngl.Context, state: GLState) -> None:
 
 
 @contextmanager
-def preserved(ctx: moderngl.Context) -> Iterator[None]:
+def preserved(
+    ctx: moderngl.Context, units: int = TEXTURE_UNITS, leaves_neutral: bool = False
+) -> Iterator[None]:
     """Run the body from `passes.neutral`, then give the host back its GL state and moderngl's
     cached view of it (the bound framebuffer object and the rest `_record` names). ContextError
     first, before any GL call, where `ctx` is not the context current in this thread: GL would
-    read another context's state (or none: zeros, in a thread with no current context)."""
+    read another context's state (or none: zeros, in a thread with no current context).
+
+    `units`: the body binds textures and sampler objects on units 0 .. `units` - 1 only, so
+    only those are kept (and start with no sampler object). `leaves_neutral`: the body ends in
+    `passes.neutral` state (the carve's batches do), so only what differs from it is put back.
+    Either way, the neutral state is reached from the host's setting only what differs."""
     check_current(ctx, "dentdemo")
     fbo = ctx.fbo
-    state = capture()
-    neutral(ctx)
+    state = capture(units)
+    to_neutral(ctx, state)
     try:
         yield
     finally:
@@ -261,4 +338,4 @@ def preserved(ctx: moderngl.Context) -> Iterator[None]:
         # the host's, or, where the host never bound one, a framebuffer that is never released.
         (fbo if fbo is not None else parking_framebuffer(ctx)).use()
         _record(ctx, state)
-        restore(state)  # GL's own binding and the rest, exactly
+        restore(state, leaves_neutral)  # GL's own binding and the rest, exactly
