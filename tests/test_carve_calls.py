@@ -253,3 +253,17 @@ def test_a_union_of_lists_dents_as_each_its_own(gl, monkeypatch):
             bodies.release()
     for (ha, na), (hb, nb) in zip(*maps, strict=True):
         assert np.array_equal(ha, hb) and np.array_equal(na, nb)
+
+
+@pytest.mark.slow
+def test_a_bursts_gl_calls_are_bounded_and_barely_grow_with_its_hits():
+    """The bench's press as a burst of 64 hits at 1024² asks GL for at most 200 calls a batch
+    (`bench.glcount`, counted as the bench counts them, in a process of its own), and at most 16
+    more than one hit alone: a hit adds an instance to draws that are there anyway, not draws,
+    uniform writes or viewports of its own; the state kept and put back is the batch's, once."""
+    from dentdemo.bench.run import gl_calls_per_batch
+
+    calls = gl_calls_per_batch([1024])
+    assert calls[1024, 64] <= 200, calls
+    assert calls[1024, 64] - calls[1024, 1] <= 16, calls
+    assert calls[1024, 1] <= calls[1024, 4] <= calls[1024, 16] <= calls[1024, 64], calls

@@ -2,8 +2,9 @@
 // entry of a std140 array in one uniform buffer a batch (binding 0): the carver writes every
 // entry of a batch at once (carve/jobs.py) and each draw names its entry with u_job. The names
 // the passes read (u_eye, u_model, ...) stand for the entry's members. World space, metres,
-// unless said otherwise. JOB_ENTRIES (the array's length: what GL 3.3's smallest uniform block
-// holds) comes from carve/constants.py; RING 1 in pass 5's programs.
+// unless said otherwise. JOB_ENTRIES (the array's length: what the driver's uniform blocks hold,
+// at least the 40 GL 3.3's smallest holds) comes from carve/jobs.py's job_entries; RING 1 in pass
+// 5's programs.
 #ifndef CARVE_JOB_GLSL
 #define CARVE_JOB_GLSL
 #ifndef RING

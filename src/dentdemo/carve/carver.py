@@ -26,8 +26,8 @@ from dentdemo.carve.camera import (
     camera_drafts,
     collision_cameras,
 )
-from dentdemo.carve.constants import JOB_ENTRIES, NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
-from dentdemo.carve.jobs import RECT_ENTRIES, JobTable, RectTable
+from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
+from dentdemo.carve.jobs import RECT_ENTRIES, JobTable, RectTable, job_entries
 from dentdemo.carve.linear import inverse3
 from dentdemo.carve.params import (
     SUBSET_TRIANGLES,
@@ -258,7 +258,7 @@ UNION_TRIANGLES_PER_DRAW = 128.0
 
 
 def _instanced(
-    jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]], per_draw: float
+    jobs: list[tuple[int, CarveJob]], draws: list[list[tuple]], per_draw: float, per_range: int
 ) -> tuple[list[tuple[int, CarveJob]], list[list[tuple]]]:
     """`jobs` (each with its place in the batch, one map's together) and their `_texel_draws`,
     the triangle-list draws of consecutive jobs that dent one map under one variant (their
@@ -277,7 +277,7 @@ def _instanced(
             return None  # rectangles: instanced already
         swept = job.target_uniforms["u_swept"]
         kinds = tuple(kind for kind, _, _ in texel_draws)
-        return (id(job.target.maps), swept, job.oblique, job.convex, kinds, k // JOB_ENTRIES)
+        return (id(job.target.maps), swept, job.oblique, job.convex, kinds, k // per_range)
 
     def emit(members: list[int], lists: Sequence[NDArray[np.int64]]) -> None:
         k, job = jobs[members[0]]
@@ -389,8 +389,9 @@ class _Joining:
     more instance of it (the next entry, in the range of the one before it, sampling the same
     map; a mesh's list the same as the run's, or their union within SUBSET_TRIANGLES)."""
 
-    def __init__(self, entry: int, item: tuple) -> None:
+    def __init__(self, entry: int, item: tuple, per_range: int) -> None:
         self.members: list[tuple] = [(entry, item)]
+        self.per_range = per_range  # entries a range of the job table holds
         self.same = True  # every list of the run is the first's
         first = item[2]
         small = first is not None and len(first) <= SUBSET_TRIANGLES
@@ -399,7 +400,8 @@ class _Joining:
     def join(self, entry: int, item: tuple) -> bool:
         """Add `item` where it may be drawn with the run; False (and nothing added) otherwise."""
         last_entry, last = self.members[-1]
-        if entry != last_entry + 1 or entry % JOB_ENTRIES == 0 or item[3][0] is not last[3][0]:
+        next_range = entry % self.per_range == 0
+        if entry != last_entry + 1 or next_range or item[3][0] is not last[3][0]:
             return False
         mine, first = item[2], self.members[0][1]
         if mine is not None:  # a mesh: the same mesh, and the same list or a small union
@@ -528,6 +530,7 @@ class Carver:
                         QUAD=int(quad),
                         PLANE=int(name == "peel"),
                         TILED=int(name == "peel" and not quad and _switches.tiled_peel),
+                        JOB_ENTRIES=job_entries(gl.ctx),
                         CLIP_DISTANCES=CLIP_DISTANCES,
                         ATLAS=f"vec2{tuple(float(side) for side in self.scratch.size)}",
                         **atlas,
@@ -641,7 +644,8 @@ class Carver:
             draws = [list(_texel_draws(job, rects, quad)) for _, job in by_map]  # 4 and 5 share
             for _, job in by_map:
                 job.target.gpu_mesh.ensure_thickness(job.camera.target_texels)  # gutter's in it
-            by_map, draws = _instanced(by_map, draws, self._switches.union_triangles_per_draw)
+            per_draw = self._switches.union_triangles_per_draw
+            by_map, draws = _instanced(by_map, draws, per_draw, self._jobs.per_range)
             upload(draw for texel_draws in draws for _, draw, _ in texel_draws)  # one a stream
             draws = self._rect_table(by_map, draws)
             with self._timed("gather"):
@@ -670,7 +674,7 @@ class Carver:
             mine: list[tuple[int, Callable[[moderngl.Program], None], int | None]] = []
             for kind, draw, box in texel_draws:
                 if box is not None:
-                    rects.append((*box, k % JOB_ENTRIES))
+                    rects.append((*box, k % self._jobs.per_range))
                     mine.append((kind, draw, len(rects) - 1))
                 else:
                     mine.append((kind, draw, None))
@@ -961,7 +965,7 @@ class Carver:
                 if run is None or not (tiled and run.join(entry, item)):
                     if run is not None:
                         runs.append(self._run_of(variant, run, name))
-                    run = _Joining(entry, item)
+                    run = _Joining(entry, item, self._jobs.per_range)
             if run is not None:
                 runs.append(self._run_of(variant, run, name))
         return runs
@@ -1053,6 +1057,7 @@ class Carver:
         if not items:
             return
         pending: list[tuple] = []  # RECT items of one instanced draw
+        per_range = self._jobs.per_range
 
         def fits(item: tuple) -> bool:
             first, last = pending[0], pending[-1]
@@ -1061,7 +1066,7 @@ class Carver:
                 and item[1] is first[1]
                 and item[6] == last[6] + 1
                 and item[6] % RECT_ENTRIES  # in the range of the rectangle before it
-                and item[5] // JOB_ENTRIES == first[5] // JOB_ENTRIES
+                and item[5] // per_range == first[5] // per_range
             )
 
         with shared_batch(self.gl.ctx, items[0][1], items[0][0].state, held) as one:

@@ -41,8 +41,9 @@ SLAB_MARGIN_TEXELS = 0.25
 #: Pass 5 also rebuilds the texels this many texels beyond pass 4's slab: the neighbours whose
 #: central differences read a changed height.
 RING_TEXELS = 1.5
-#: Entries of a batch's job table (shaders/carve/job.glsl) one uniform-buffer range holds: 40
-#: entries of 352 bytes fit GL 3.3's smallest uniform block (16 KiB).
+#: Entries of a batch's job table (shaders/carve/job.glsl) one uniform-buffer range holds at
+#: least: 40 entries of 368 bytes fit GL 3.3's smallest uniform block (16 KiB); a context whose
+#: blocks hold more gets more (carve/jobs.py, `job_entries`).
 JOB_ENTRIES = 40
 #: Address-map clear value of u: no target surface at that camera pixel.
 NO_SURFACE = -1.0

@@ -1,8 +1,8 @@
 """A batch's job table: every value the carve's passes take per direction of a hit and per body
 they draw (camera, pose, solid, press, clip box and slabs, gather bounds), one std140 entry each
 (shaders/carve/job.glsl), written into one uniform buffer once a batch. A draw names its entry
-with one integer (`u_job`); the buffer is bound by range, `JOB_ENTRIES` entries a range (what GL
-3.3's smallest uniform block holds), so a draw whose entry lies in another range binds that one.
+with one integer (`u_job`); the buffer is bound by range, `job_entries` a range (what the driver's
+uniform blocks hold), so a draw whose entry lies in another range binds that one.
 
 The entry's layout is read from job.glsl's struct and checked against the driver's own offsets
 when each program is built (`check_layout`); carve/params.py holds its members to the parameter
@@ -158,14 +158,15 @@ class RangeTable:
         self._bound = -1  # the range bound at `binding` since `write`, or -1
 
     def write_packed(self, entries: Sequence[bytes]) -> None:
-        """Every entry of a batch, packed, in order (entry k is `use(k)`'s)."""
-        pad, chunks = b"\0" * (self._step - self._range), []
-        for start in range(0, max(len(entries), 1), self._per_range):
-            part = b"".join(entries[start : start + self._per_range])
-            chunks.append(part + b"\0" * (self._range - len(part)) + pad)
-        data = b"".join(chunks)
-        self.buffer.orphan(max(len(data), self.buffer.size))
-        self.buffer.write(data)
+        """Every entry of a batch, packed, in order (entry k is `use(k)`'s). The storage holds
+        whole ranges; what follows the last entry is not written (no draw reads it)."""
+        per = self._per_range
+        parts = [b"".join(entries[at : at + per]) for at in range(0, max(len(entries), 1), per)]
+        data = b"".join(part + b"\0" * (self._step - len(part)) for part in parts[:-1])
+        data += parts[-1]
+        self.buffer.orphan(max(len(parts) * self._step, self.buffer.size))
+        if data:
+            self.buffer.write(data)
         self._bound = -1
 
     def use(self, entry: int) -> int:
@@ -186,12 +187,27 @@ class RangeTable:
         self.buffer.release()
 
 
+#: The largest uniform block a range of the job table may fill, bytes (what GL drivers commonly
+#: allow; GL 3.3 guarantees 16 KiB, `JOB_ENTRIES`).
+MAX_RANGE_BYTES = 1 << 16
+
+
+def job_entries(ctx: moderngl.Context) -> int:
+    """Entries a range of the job table holds in `ctx`: as many as its uniform blocks hold
+    (GL_MAX_UNIFORM_BLOCK_SIZE, up to MAX_RANGE_BYTES), at least `JOB_ENTRIES`. The carve's
+    programs are built with it (job.glsl's array), so that a batch spans few ranges: each draw
+    is instanced over entries of one range, and each range a pass reaches is bound once."""
+    size = min(int(ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 0)), MAX_RANGE_BYTES)
+    return max(JOB_ENTRIES, size // entry_layout().stride)
+
+
 class JobTable(RangeTable):
-    """A batch's job table: `JOB_ENTRIES` entries (`entry_layout`) a range at BINDING; `use`
+    """A batch's job table: `job_entries` entries (`entry_layout`) a range at BINDING; `use`
     gives the index for `u_job`."""
 
     def __init__(self, ctx: moderngl.Context) -> None:
-        super().__init__(ctx, BINDING, entry_layout().stride, JOB_ENTRIES)
+        self.per_range = job_entries(ctx)
+        super().__init__(ctx, BINDING, entry_layout().stride, self.per_range)
 
     def write(self, entries: Sequence[Mapping[str, object]]) -> None:
         """Every entry of a batch, by uniform name, in order (entry k is `use(k)`'s)."""

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from dentdemo.carve.camera import CollisionCamera
 from dentdemo.carve.constants import shader_defines
-from dentdemo.carve.jobs import RECT_BINDING, RECT_BLOCK, RECT_ENTRIES, job_table
+from dentdemo.carve.jobs import RECT_BINDING, RECT_BLOCK, RECT_ENTRIES, job_entries, job_table
 from dentdemo.carve.linear import column_scale, inverse3
 from dentdemo.carve.params import (
     Camera,
@@ -94,7 +94,9 @@ def texture_space_passes(gl: GLContext) -> dict[tuple, Pass]:
                     vertex,
                     f"carve/{name}.frag",
                     geometry,
-                    defines=shader_defines(GUTTER=int(draw == GUTTER), **defines),
+                    defines=shader_defines(
+                        GUTTER=int(draw == GUTTER), JOB_ENTRIES=job_entries(gl.ctx), **defines
+                    ),
                 )
                 which = (name, draw, *variant)
                 check_program(prog, TexelUniforms, samplers, f"carve pass {which}")
