@@ -657,7 +657,7 @@ def _peel_atlas(gl, carver: Carver, presses) -> tuple[np.ndarray, int, int]:
 
     (batch,) = carver.scratch.pack(carver.plan_many(presses))
     runs = carver._camera_runs("peel", list(enumerate(batch)), iter(range(len(batch), 99999)))
-    meshes = sum(1 for run in runs if not run.variant[2])
+    meshes = sum(1 for run in runs if run.items[0][2] is not None)  # a triangle list
     with preserved(gl.ctx):
         carver._camera_stage(batch)
     return gl.read(carver.scratch.tool_depth).view(np.uint32), len(batch), meshes

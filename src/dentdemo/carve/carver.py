@@ -371,7 +371,7 @@ def _from_neutral(ctx: moderngl.Context) -> Iterator[None]:
 class _Run(NamedTuple):
     """Pass 2 or 3's draw of consecutive entries of the job table (`Carver._camera_runs`)."""
 
-    variant: tuple
+    pass_: Pass
     #: Its first entry; instance i reads entry first + i.
     first: int
     #: (k, job, triangle list or None, textures) of each instance.
@@ -515,34 +515,42 @@ class Carver:
         self.scratch = _Scratch(gl.ctx, atlas_size(options.max_resolution))
         atlas = sphere_atlas_defines()
         #: Passes 2 and 3 by (name, whether the body drawn is a swept solid: SWEPT, whether it
-        #: is a sphere or capsule drawn as one quad: QUAD 1, 2).
+        #: is a sphere or capsule drawn as one quad: QUAD 1, 2); pass 3 of a mesh tool drawn
+        #: instanced over jobs, each placed in its tile (TILED 1), by SWEPT.
         self._surface: dict[tuple[str, bool, Quad], Pass] = {}
+        self._tiled: dict[bool, Pass] = {}
         for name, (state, samplers) in _SURFACE_PASSES.items():
             for swept, quad in ((False, Quad.NONE), (True, Quad.NONE), *_QUADS):
-                prog = program(
-                    gl.cache,
-                    gl.ctx,
-                    "carve/quad.vert" if quad else "carve/surface.vert",
-                    f"carve/{name}.frag",
-                    "carve/peel.geom" if name == "peel" and not quad else None,
-                    defines=shader_defines(
-                        SWEPT=int(swept),
-                        QUAD=int(quad),
-                        PLANE=int(name == "peel"),
-                        TILED=int(name == "peel" and not quad and _switches.tiled_peel),
-                        JOB_ENTRIES=job_entries(gl.ctx),
-                        CLIP_DISTANCES=CLIP_DISTANCES,
-                        ATLAS=f"vec2{tuple(float(side) for side in self.scratch.size)}",
-                        **atlas,
-                    ),
-                )
-                key = (name, swept, quad)
-                check_program(prog, SurfaceUniforms, samplers, f"carve pass {key}")
-                self._surface[key] = Pass(name, prog, state, samplers, VARIANT_KEYS)
+                mesh_peel = name == "peel" and not quad
+                for tiled in (False, True) if mesh_peel and _switches.tiled_peel else (False,):
+                    prog = program(
+                        gl.cache,
+                        gl.ctx,
+                        "carve/quad.vert" if quad else "carve/surface.vert",
+                        f"carve/{name}.frag",
+                        "carve/peel.geom" if mesh_peel else None,
+                        defines=shader_defines(
+                            SWEPT=int(swept),
+                            QUAD=int(quad),
+                            PLANE=int(name == "peel"),
+                            TILED=int(tiled),
+                            JOB_ENTRIES=job_entries(gl.ctx),
+                            CLIP_DISTANCES=CLIP_DISTANCES,
+                            ATLAS=f"vec2{tuple(float(side) for side in self.scratch.size)}",
+                            **atlas,
+                        ),
+                    )
+                    key = (name, swept, quad)
+                    check_program(prog, SurfaceUniforms, samplers, f"carve pass {key}")
+                    pass_ = Pass(name, prog, state, samplers, VARIANT_KEYS)
+                    if tiled:
+                        self._tiled[swept] = pass_
+                    else:
+                        self._surface[key] = pass_
         self._quad_vaos: dict[int, moderngl.VertexArray] = {}
         self._texel = texture_space_passes(gl)
         #: The texture units the passes sample (0 .. this - 1).
-        passes = (*self._surface.values(), *self._texel.values())
+        passes = (*self._surface.values(), *self._tiled.values(), *self._texel.values())
         self._units = max(len(pass_.samplers) for pass_ in passes)
         #: The job table of the batch being drawn (`_camera_stage`), and its texel rectangles.
         self._jobs = JobTable(gl.ctx)
@@ -752,6 +760,8 @@ class Carver:
         )
         for name in surfaces:  # _camera_passes
             yield name, self._surface[name, swept, quad], "" if quad else name
+        if not quad and self._tiled:  # pass 3 of its jobs instanced
+            yield "peel", self._tiled[swept], "peel"
 
     def measure_passes(
         self,
@@ -956,7 +966,7 @@ class Carver:
             variants.setdefault((name, bool(uniforms["u_swept"]), quad), []).append(item)
         runs: list[_Run] = []
         for variant, items in variants.items():
-            quad, tiled = variant[2], variant[2] or (tool and self._switches.tiled_peel)
+            tiled = bool(variant[2]) or (tool and bool(self._tiled))
             if tiled:  # one instanced draw per map sampled (the sort is stable)
                 items.sort(key=lambda item: id(item[3][0]))
             run: _Joining | None = None
@@ -971,24 +981,26 @@ class Carver:
         return runs
 
     def _run_of(self, variant: tuple, run: _Joining, name: str) -> _Run:
-        """The draw of `run` (consecutive entries of one variant)."""
+        """The draw of `run` (consecutive entries of one variant). A mesh tool of one job keeps
+        its tile as the viewport: clipping its triangles at the tile's edges costs llvmpipe
+        more than the viewport does (docs/carve.md, "Mesh tools instanced in pass 3")."""
         first, (_, job, triangles, _) = run.members[0]
         items = [item for _, item in run.members]
         count = len(items)
         if variant[2]:  # quads
             draw: Callable = partial(self._draw_quad, instances=count)
-            return _Run(variant, first, items, draw, [None] * count, None)
+            return _Run(self._surface[variant], first, items, draw, [None] * count, None)
         gpu_mesh = (job.tool if name == "peel" else job.target).gpu_mesh
-        if not (name == "peel" and self._switches.tiled_peel):
-            return _Run(
-                variant, first, items, gpu_mesh.drawer(triangles, name), [None], job.viewport
-            )
+        if count == 1:
+            draw = gpu_mesh.drawer(triangles, name)
+            return _Run(self._surface[variant], first, items, draw, [None], job.viewport)
         skips: list[tuple[int, int, int, int] | None] = [None] * count
         if not run.same:
             lists = [item[2] for item in items]
             triangles = np.unique(np.concatenate(lists))
             skips = [_skip_bits(np.searchsorted(triangles, mine), len(triangles)) for mine in lists]
-        return _Run(variant, first, items, gpu_mesh.drawer(triangles, name, count), skips, None)
+        draw = gpu_mesh.drawer(triangles, name, count)
+        return _Run(self._tiled[variant[1]], first, items, draw, skips, None)
 
     def _camera_passes(
         self, name: str, fbo: moderngl.Framebuffer, runs: list[_Run], held: HeldState | None
@@ -1003,7 +1015,7 @@ class Carver:
             for run in runs:
                 uniforms = {"u_job": self._jobs.use(run.first)}
                 viewport = atlas if run.viewport is None else run.viewport
-                one(self._surface[run.variant], viewport, run.draw, run.items[0][3], uniforms)
+                one(run.pass_, viewport, run.draw, run.items[0][3], uniforms)
 
     def _draw_quad(self, prog: moderngl.Program, instances: int = 1) -> None:
         """quad.vert's (or util/rect.vert's) four corners (no vertex data), `instances` times."""
