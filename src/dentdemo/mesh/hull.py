@@ -22,8 +22,9 @@ def hull_faces(points: NDArray[np.float64]) -> list[NDArray[np.float64]]:
     scale = max(float(np.ptp(p, axis=0).max()), 1e-30)
     tolerance = PLANE_TOLERANCE * scale
     faces: list[NDArray[np.float64]] = []
-    seen: list[tuple[NDArray[np.float64], float]] = []
-    for i, j, k in itertools.combinations(range(len(p)), 3):
+    seen_normals: list[NDArray[np.float64]] = []
+    seen_offsets: list[float] = []
+    for i, j, k in _candidate_triples(p, tolerance, scale):
         normal = np.cross(p[j] - p[i], p[k] - p[i])
         length = float(np.linalg.norm(normal))
         if length < tolerance * scale:
@@ -35,9 +36,10 @@ def hull_faces(points: NDArray[np.float64]) -> list[NDArray[np.float64]]:
             if (side < -tolerance).any():
                 continue
             normal, offset, side = -normal, -offset, -side
-        if any(np.allclose(normal, n, atol=1e-9) and abs(offset - o) <= tolerance for n, o in seen):
+        if seen_normals and _seen(normal, offset, seen_normals, seen_offsets, tolerance):
             continue
-        seen.append((normal, offset))
+        seen_normals.append(normal)
+        seen_offsets.append(offset)
         on = p[np.abs(side) <= tolerance]
         a = on[np.argmax(np.linalg.norm(on - on[0], axis=1))] - on[0]
         a /= np.linalg.norm(a)
@@ -45,6 +47,42 @@ def hull_faces(points: NDArray[np.float64]) -> list[NDArray[np.float64]]:
         flat = np.stack([(on - on[0]) @ a, (on - on[0]) @ b], axis=1)
         faces.append(on[convex_ring(flat, tolerance)])
     return faces
+
+
+def _candidate_triples(
+    p: NDArray[np.float64], tolerance: float, scale: float
+) -> list[tuple[int, int, int]]:
+    """The triples of points, in `itertools.combinations` order, whose plane `hull_faces` may
+    keep: those that are, as all triples at once, clearly degenerate or clearly cut by the
+    hull are left out. "Clearly": by twice the tolerance, so that the rounding of the array
+    arithmetic (other than `hull_faces`' own, a triple at a time) decides no triple; each one
+    kept is tested again there, with the bits it always had."""
+    triples = np.array(list(itertools.combinations(range(len(p)), 3)), dtype=np.int64)
+    if len(triples) == 0:
+        return []
+    a, b, c = p[triples[:, 0]], p[triples[:, 1]], p[triples[:, 2]]
+    normal = np.cross(b - a, c - a)
+    length = np.sqrt((normal * normal).sum(axis=1))
+    degenerate = length < 0.5 * tolerance * scale
+    unit = normal / np.where(degenerate, 1.0, length)[:, None]
+    side = unit @ p.T - (unit * a).sum(axis=1)[:, None]
+    cut = (side > 2.0 * tolerance).any(axis=1) & (side < -2.0 * tolerance).any(axis=1)
+    return [tuple(row) for row in triples[~(degenerate | cut)].tolist()]
+
+
+def _seen(
+    normal: NDArray[np.float64],
+    offset: float,
+    normals: list[NDArray[np.float64]],
+    offsets: list[float],
+    tolerance: float,
+) -> bool:
+    """Whether a face's plane (unit `normal`, `offset`) is one of those found already: its
+    normal `np.allclose` to theirs (atol 1e-9, numpy's rtol 1e-5) and its offset within
+    `tolerance`, all of them compared at once."""
+    known = np.asarray(normals)
+    close = (np.abs(normal - known) <= 1e-9 + 1e-5 * np.abs(known)).all(axis=1)
+    return bool((close & (np.abs(offset - np.asarray(offsets)) <= tolerance)).any())
 
 
 def convex_ring(flat: NDArray[np.float64], tolerance: float) -> list[int]:
