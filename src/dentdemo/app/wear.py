@@ -25,8 +25,9 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -57,6 +58,9 @@ VISIBLE_DEPTH = 1e-5
 #: Swept tools are made per length rounded to this, m, and kept (a capsule of the rounded
 #: length centred on the segment, pressed to the depth that wears the segment's volume over it).
 LENGTH_STEP = 5e-3
+#: Capsules a sandbox keeps on the GPU (`GrooveTools`): one per ball radius and rounded length;
+#: a sandbox of balls of many sizes makes more, the least recently used are made again.
+CAPSULES_KEPT = 64
 #: The swept tool's map side at most, texels (only its pitch matters: the carve's pixels grow
 #: to one of its texels).
 TOOL_MAP_MAX = 1024
@@ -135,13 +139,26 @@ class Carved:
 
 
 class GrooveTools:
-    """Swept tools on the GPU: capsules made once per size and kept, box hulls made per batch
-    and released at the next (`next_batch`). The carve and a hit log's replay share them."""
+    """Swept tools on the GPU: capsules made once per radius and rounded length and kept (the
+    CAPSULES_KEPT used last), box hulls made per batch and released at the next (`next_batch`).
+    The carve and a hit log's replay share them.
+
+    A groove's press dents only the worn body (no tool depth), so a tool's heights stay 0 and
+    the carve reads nothing else of its maps but their texel size: the capsules whose maps have
+    one side share one set of textures (made with the first of them; its chart mask is no other
+    capsule's, and nothing reads a tool's mask), each with its own texel size."""
 
     def __init__(self, gl: GLContext) -> None:
         self.gl = gl
-        self._tools: dict[tuple[float, float, float], tuple[GpuMesh, SurfaceMaps]] = {}
-        self._meshes: dict[tuple[float, float], Mesh] = {}
+        #: Capsules by (radius, rounded length), least recently used first, each with its maps
+        #: by the texel size asked for (views of the shared ones).
+        self._capsules: OrderedDict[
+            tuple[float, float], tuple[GpuMesh, dict[float, SurfaceMaps]]
+        ] = OrderedDict()
+        #: Those `body` gave since the last `next_batch`: a batch's presses hold them.
+        self._in_use: set[tuple[float, float]] = set()
+        #: The shared flat maps, by side.
+        self._flat: dict[int, SurfaceMaps] = {}
         #: The swept boxes of the last batch (one hull each), released at the next.
         self._hulls: list[tuple[GpuMesh, SurfaceMaps]] = []
 
@@ -151,6 +168,7 @@ class GrooveTools:
             maps.release()
             gpu.release()
         self._hulls = []
+        self._in_use.clear()
 
     def body(self, tool: GrooveTool, worn: SurfaceMaps, model: NDArray[np.float64]) -> CarveBody:
         """`tool` on the GPU, posed `model`; its texels no coarser than `worn`'s."""
@@ -169,28 +187,49 @@ class GrooveTools:
 
     def _capsule(self, radius: float, length: float, texel: float) -> tuple[GpuMesh, SurfaceMaps]:
         """The capsule swept by a sphere of `radius` along `length`, its texels no coarser than
-        `texel` (a power-of-two map side, up to TOOL_MAP_MAX); made once per size."""
-        mesh = self._meshes.get((radius, length))
-        if mesh is None:
-            mesh = self._meshes[(radius, length)] = shape_mesh(
-                Capsule(radius, length), Tessellation()
-            )
-        side = _power_of_two(map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX))
-        key = (radius, length, float(side))
-        held = self._tools.get(key)
+        `texel` (a power-of-two map side, up to TOOL_MAP_MAX)."""
+        key = (radius, length)
+        held = self._capsules.get(key)
         if held is None:
-            gpu = GpuMesh(self.gl, mesh)
-            held = (gpu, create_maps(self.gl, gpu, side, 0.0))
-            self._tools[key] = held
-        return held
+            held = (GpuMesh(self.gl, shape_mesh(Capsule(radius, length), Tessellation())), {})
+            self._capsules[key] = held
+        self._capsules.move_to_end(key)
+        self._in_use.add(key)
+        self._forget_unused()
+        gpu, views = held
+        maps = views.get(texel)
+        if maps is None:
+            mesh = gpu.mesh
+            side = _power_of_two(map_size_for(mesh, 1.0 / texel, cap=TOOL_MAP_MAX))
+            flat = self._flat.get(side)
+            if flat is None:
+                flat = self._flat[side] = create_maps(self.gl, gpu, side, 0.0)
+            su, sv = mesh.uv_scale()
+            maps = views[texel] = replace(flat, texel_metres=(su / side, sv / side))
+        return gpu, maps
+
+    def _forget_unused(self) -> None:
+        """The capsules used least recently, beyond CAPSULES_KEPT, released (not those of the
+        batch being made)."""
+        for key in list(self._capsules):
+            if len(self._capsules) <= CAPSULES_KEPT:
+                break
+            if key not in self._in_use:
+                self._capsules.pop(key)[0].release()
+
+    def held(self) -> tuple[int, int]:
+        """The capsules kept and the sets of maps they share (what this holds on the GPU
+        between batches, besides the current batch's boxes)."""
+        return len(self._capsules), len(self._flat)
 
     def release(self) -> None:
         self.next_batch()
-        for gpu, maps in self._tools.values():
-            maps.release()
+        for gpu, _ in self._capsules.values():
             gpu.release()
-        self._tools.clear()
-        self._meshes.clear()
+        for maps in self._flat.values():
+            maps.release()
+        self._capsules.clear()
+        self._flat.clear()
 
 
 class WearTracker:
