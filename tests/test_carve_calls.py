@@ -73,8 +73,9 @@ def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatc
     """A batch of 16 hits runs passes 3, 4 and 5 (and pass 2 for every target with
     `address_every_target`): each capability that no pass uses is switched off at most three
     times in the batch (the neutral state it starts from, the first pass, the neutral state it
-    leaves), not once or twice a pass, and clip distance 0 is switched on at most once a pass
-    that changes it."""
+    leaves), not once or twice a pass; and the six clip distances, which every carve pass
+    enables alike (those it does not use hold 1), are switched on once for the batch (and off
+    only by the neutral state it starts from and the one it leaves)."""
     bodies = Bodies(gl)
     carver = Carver(gl, CarverOptions(keep_host_state=False, address_every_target=True))
     gl_ = gl_library()
@@ -103,8 +104,9 @@ def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatc
             gl_.__class__ = plain
         for cap in _OFF:
             assert calls["glDisable", cap] <= 3, hex(cap)
-        # Clip distance 0: on for pass 2 (one), 4 and 5 (six each), off for pass 3 (none).
-        assert calls["glEnable", 0x3000] == 1
+        for k in range(6):  # GL_CLIP_DISTANCE0 + k
+            assert calls["glEnable", 0x3000 + k] == 1, k
+            assert calls["glDisable", 0x3000 + k] <= 2, k
     finally:
         carver.release()
         bodies.release()
