@@ -190,12 +190,13 @@ class GrooveTools:
         `texel` (a power-of-two map side, up to TOOL_MAP_MAX)."""
         key = (radius, length)
         held = self._capsules.get(key)
+        self._in_use.add(key)
         if held is None:
             held = (GpuMesh(self.gl, shape_mesh(Capsule(radius, length), Tessellation())), {})
             self._capsules[key] = held
-        self._capsules.move_to_end(key)
-        self._in_use.add(key)
-        self._forget_unused()
+            self._forget_unused()
+        else:
+            self._capsules.move_to_end(key)
         gpu, views = held
         maps = views.get(texel)
         if maps is None:
@@ -216,11 +217,6 @@ class GrooveTools:
                 break
             if key not in self._in_use:
                 self._capsules.pop(key)[0].release()
-
-    def held(self) -> tuple[int, int]:
-        """The capsules kept and the sets of maps they share (what this holds on the GPU
-        between batches, besides the current batch's boxes)."""
-        return len(self._capsules), len(self._flat)
 
     def release(self) -> None:
         self.next_batch()

@@ -100,16 +100,6 @@ class PassState:
     wireframe: bool = False
 
 
-@contextmanager
-def applied(ctx: moderngl.Context, state: PassState) -> Iterator[None]:
-    """Run under `state` (after the pass's framebuffer is bound: binding one applies its own
-    colour and depth masks and switches the scissor test off), then leave `neutral` state and
-    the bound framebuffer's depth mask."""
-    with held_state(ctx) as held:
-        held.apply(state)
-        yield
-
-
 class HeldState:
     """The fixed-function state that a run of passes has set (`held_state`): each pass applies
     only what differs from what the passes before it set, where each used to set all of it and
