@@ -1031,14 +1031,21 @@ class Carver:
         `draws`: each one's `_texel_draws`) over their footprints' texels and the ring beside
         them (RING 1: the entry's `ring_slab`): the state applied once, each map's framebuffer
         bound once."""
-        items: list[tuple] = []
+        groups: list[list[tuple]] = []  # each map's items
+        last: SurfaceMaps | None = None
         for (k, job), texel_draws in zip(jobs, draws, strict=True):
             maps = job.target.maps
+            if maps is not last:
+                groups.append([])
+                last = maps
             for kind, draw, rect in texel_draws:
                 pass_ = self._texel["normals", kind, False]
                 textures = (maps.height, maps.mask)
-                items.append((pass_, maps.normal_fbo, maps.size, draw, textures, k, rect))
-        self._texture_space(items, held)
+                groups[-1].append((pass_, maps.normal_fbo, maps.size, draw, textures, k, rect))
+        # The maps in the reverse of their gathers' order: the first rebuild's wait for the
+        # heights it reads (a software rasteriser draws queued passes in order) is then the
+        # wait for every gather, and the others wait for none.
+        self._texture_space([item for group in reversed(groups) for item in group], held)
 
     # -- pass 4 --------------------------------------------------------------------------------
     def _gather_passes(
