@@ -156,6 +156,30 @@ def test_a_spheres_frame_is_the_triangle_under_the_point(n):
         assert np.abs(frame.uv - uv).max() <= 1e-9
 
 
+def test_a_kept_triangle_frame_gives_what_a_fresh_mesh_gives(monkeypatch):
+    # `frame_near` keeps each triangle's frame (at most FRAMES_KEPT): points asked in any
+    # order, many over one triangle and the cache cleared on the way, get the same bits as
+    # from a fresh copy of the mesh asked for that point alone; a caller that changes the
+    # normal it was given changes no later frame.
+    from dentdemo.mesh import mesh as mesh_module
+
+    monkeypatch.setattr(mesh_module, "FRAMES_KEPT", 5)
+    radius = 0.03
+    rng = np.random.default_rng(11)
+    directions = _directions(40, 11)
+    points = radius * np.vstack([directions, directions[rng.permutation(len(directions))]])
+    for make in (lambda: primitives.sphere(radius, 4), lambda: primitives.plate(0.5, 3)):
+        mesh = make()
+        for point in points:
+            fresh = make().frame_near(point)
+            kept = mesh.frame_near(point)
+            for field in ("uv", "dpdu", "dpdv", "normal"):
+                assert np.array_equal(getattr(kept, field), getattr(fresh, field)), field
+            assert kept.distance == fresh.distance
+            kept.normal[:] = np.nan  # the caller's copy
+        assert len(mesh._triangle_frame_cache[1]) <= 5
+
+
 def test_a_plates_frame_is_its_own_uv_everywhere():
     # The plate convention (x = (u - 0.5) S, z = (0.5 - v) S): any point's uv and one frame,
     # dP/du = (S, 0, 0) and dP/dv = (0, 0, -S), whatever triangle it lies over.

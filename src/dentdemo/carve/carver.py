@@ -326,23 +326,34 @@ def _instanced(
     return out_jobs, out_draws
 
 
-def _oblique(target: CarveBody, camera: CollisionCamera) -> bool:
+def _oblique(
+    target: CarveBody, camera: CollisionCamera, shared: NDArray[np.float64] | None = None
+) -> bool:
     """Whether any vertex normal of the triangles pass 4 draws (or a swept solid's surface) is
-    not the press direction reversed, to float rounding."""
+    not the press direction reversed, to float rounding. `shared`: a flat target's one normal
+    in the world (`_world_normals` of it), where the caller keeps it."""
     mesh = target.gpu_mesh.mesh
     if is_swept(mesh):
         return True  # a sphere or capsule's own normals
     if len(camera.target_texels) == 0:
         return False
-    shared = mesh.shared_normal()  # a flat mesh (a plate): one normal to look at
-    if shared is not None:
-        local = shared[None, :]
-    else:
-        local = mesh.normals[np.unique(mesh.indices[camera.target_texels].ravel())]
-    m = np.asarray(target.model, dtype=np.float64)[:3, :3]
+    normals = shared
+    if normals is None:
+        flat = mesh.shared_normal()  # a flat mesh (a plate): one normal to look at
+        if flat is not None:
+            local = flat[None, :]
+        else:
+            local = mesh.normals[np.unique(mesh.indices[camera.target_texels].ravel())]
+        normals = _world_normals(local, target.model)
+    return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
+
+
+def _world_normals(local: NDArray, model: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Local normals (rows) in the world of a body posed at `model`, unit length."""
+    m = np.asarray(model, dtype=np.float64)[:3, :3]
     normals = local.astype(np.float64) @ inverse3(m)  # world, by rows
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
+    return normals
 
 
 def _target_entry(job: CarveJob) -> dict[str, object]:
@@ -557,8 +568,12 @@ class Carver:
         self._rects = RectTable(gl.ctx)
         #: The cameras of the last hit (for the address-map debug view and tests).
         self.last_jobs: list[CarveJob] = []
-        #: Pose uniforms by (mesh, pose) (`_pose_uniforms`), at most POSES_KEPT.
-        self._posed: dict[tuple[int, bytes], tuple[Mesh, dict[str, object]]] = {}
+        #: Pose uniforms (and a flat body's world normal) by (mesh, pose) (`_posed_entry`), at
+        #: most POSES_KEPT.
+        self._posed: dict[
+            tuple[int, bytes],
+            tuple[Mesh, dict[str, object], dict[str, NDArray[np.float64] | None]],
+        ] = {}
         #: The passes and kinds of map whose shader variants `warm` compiled.
         self._warmed: set[tuple] = set()
 
@@ -895,21 +910,40 @@ class Carver:
             camera,
             {**view, **self._pose_uniforms(target.gpu_mesh.mesh, target.model), **press.values()},
             {**view, **self._pose_uniforms(tool.gpu_mesh.mesh, advanced)},
-            oblique=_oblique(target, camera),
+            oblique=_oblique(target, camera, self._shared_normal(target)),
             convex=target.gpu_mesh.mesh.bound is not None,
         )
+
+    def _shared_normal(self, body: CarveBody) -> NDArray[np.float64] | None:
+        """A flat body's one normal in the world (`_oblique`), kept with its pose's uniforms
+        for the rest of the batch; None for another body."""
+        mesh = body.gpu_mesh.mesh
+        if is_swept(mesh):
+            return None
+        found = self._posed_entry(mesh, body.model)
+        if "normal" not in found[2]:
+            flat = mesh.shared_normal()
+            found[2]["normal"] = None if flat is None else _world_normals(flat[None, :], body.model)
+        return found[2]["normal"]
 
     def _pose_uniforms(self, mesh: Mesh, model: NDArray[np.float64]) -> dict[str, object]:
         """`pose_uniforms` of a body posed at `model`, kept for the rest of the batch being
         planned: a burst's hits share a target and often a tool's pose."""
+        return self._posed_entry(mesh, model)[1]
+
+    def _posed_entry(
+        self, mesh: Mesh, model: NDArray[np.float64]
+    ) -> tuple[Mesh, dict[str, object], dict[str, NDArray[np.float64] | None]]:
+        """What the batch keeps of a body posed at `model`: its mesh, pose uniforms and world
+        normal (filled in by `_shared_normal`)."""
         key = (id(mesh), np.asarray(model, dtype=np.float64).tobytes())
         found = self._posed.get(key)
         if found is None or found[0] is not mesh:
             if len(self._posed) >= POSES_KEPT:
                 self._posed.clear()
-            found = (mesh, pose_uniforms(mesh, model))
+            found = (mesh, pose_uniforms(mesh, model), {})
             self._posed[key] = found
-        return found[1]
+        return found
 
     # -- passes 2 and 3 ------------------------------------------------------------------------
     def _camera_stage(self, jobs: list[CarveJob], held: HeldState | None = None) -> None:

@@ -15,6 +15,8 @@ from dentdemo.mesh.cube import cube_atlas_indices, cube_triangle
 F32 = NDArray[np.float32]
 #: Triangles per cluster of `Mesh.clusters`.
 CLUSTER_SIZE = 32
+#: Triangles whose frames `Mesh.frame_near` keeps (cleared when full).
+FRAMES_KEPT = 4096
 
 
 @dataclass(frozen=True)
@@ -470,36 +472,64 @@ class Mesh:
             centre, _ = self.triangle_spheres()
             d = centre[group] - p
             k = int(group[np.argmin(np.einsum("ij,ij->i", d, d))])
-        dpdu, dpdv = self.triangle_derivatives()
-        corner = int(self.indices[k, 0])
-        # One triangle's frame: a few scalars, on Python floats (numpy costs more per call).
-        ux, uy, uz = dpdu[k].tolist()
-        vx, vy, vz = dpdv[k].tolist()
-        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-        length = max(math.sqrt(nx * nx + ny * ny + nz * nz), 1e-30)
-        nx, ny, nz = nx / length, ny / length, nz / length
-        ax, ay, az = self.positions[corner].tolist()
+        (ux, uy, uz), (vx, vy, vz), (nx, ny, nz), (ax, ay, az), (u0, v0), g, normal = (
+            self._triangle_frame(k)
+        )
+        guu, guv, gvv, det = g
         px, py, pz = p.tolist()
         rx, ry, rz = px - ax, py - ay, pz - az
         distance = abs(rx * nx + ry * ny + rz * nz)
         # uv offset of p's projection on the plane: solve rel = s dpdu + t dpdv (normal
         # equations of the 3 x 2 system).
-        guu = ux * ux + uy * uy + uz * uz
-        guv = ux * vx + uy * vy + uz * vz
-        gvv = vx * vx + vy * vy + vz * vz
         bu, bv = rx * ux + ry * uy + rz * uz, rx * vx + ry * vy + rz * vz
-        det = guu * gvv - guv * guv
-        det = det if det else 1e-30
-        u0, v0 = self.uvs[corner].tolist()
-        wx, wy, wz = self.normals[corner].tolist()
-        outward = 1.0 if nx * wx + ny * wy + nz * wz >= 0 else -1.0
+        dpdu, dpdv = self.triangle_derivatives()
         return SurfacePoint(
             np.array([u0 + (gvv * bu - guv * bv) / det, v0 + (guu * bv - guv * bu) / det]),
             dpdu[k],
             dpdv[k],
-            np.array([nx * outward, ny * outward, nz * outward]),
+            normal.copy(),
             distance,
         )
+
+    def _triangle_frame(self, k: int) -> tuple:
+        """What `frame_near` takes of triangle k, whatever the point (cached by triangle, at
+        most FRAMES_KEPT: a burst's hits come back to a few): dP/du, dP/dv, the unit normal,
+        the first corner and its uv on Python floats, the normal equations' (guu, guv, gvv,
+        det), and the normal turned outwards (by the corner's vertex normal) as an array."""
+        cached: tuple[int, dict[int, tuple]] | None = getattr(self, "_triangle_frame_cache", None)
+        if cached is None or cached[0] != len(self.indices):
+            cached = (len(self.indices), {})
+            self._triangle_frame_cache = cached
+        frame = cached[1].get(k)
+        if frame is None:
+            if len(cached[1]) >= FRAMES_KEPT:
+                cached[1].clear()
+            dpdu, dpdv = self.triangle_derivatives()
+            corner = int(self.indices[k, 0])
+            # One triangle's frame: a few scalars, on Python floats (numpy costs more a call).
+            ux, uy, uz = dpdu[k].tolist()
+            vx, vy, vz = dpdv[k].tolist()
+            nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            length = max(math.sqrt(nx * nx + ny * ny + nz * nz), 1e-30)
+            nx, ny, nz = nx / length, ny / length, nz / length
+            guu = ux * ux + uy * uy + uz * uz
+            guv = ux * vx + uy * vy + uz * vz
+            gvv = vx * vx + vy * vy + vz * vz
+            det = guu * gvv - guv * guv
+            det = det if det else 1e-30
+            wx, wy, wz = self.normals[corner].tolist()
+            outward = 1.0 if nx * wx + ny * wy + nz * wz >= 0 else -1.0
+            frame = (
+                (ux, uy, uz),
+                (vx, vy, vz),
+                (nx, ny, nz),
+                tuple(self.positions[corner].tolist()),
+                tuple(self.uvs[corner].tolist()),
+                (guu, guv, gvv, det),
+                np.array([nx * outward, ny * outward, nz * outward]),
+            )
+            cached[1][k] = frame
+        return frame
 
     def is_flat(self) -> bool:
         """Whether every triangle has one plane and one affine uv map (a plate), to float32's
