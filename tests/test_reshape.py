@@ -339,3 +339,31 @@ def test_a_posed_press_moves_each_point_to_where_it_leaves_the_tool(kind, scale)
     expected = np.minimum(_exit_along(world - direction * advance, -normal, kind, tool), bound)
     assert (expected > 0).sum() > 5 and (expected == 0).sum() > 100
     assert np.abs(proxy.inward - np.minimum(expected, proxy.thickness)).max() < 1e-9
+
+
+def test_a_reshaped_body_keeps_its_place_in_the_collision_order(tmp_path):
+    # set_surface and reset_shape promise the body its place in the collision space's order
+    # (ODE's QuickStep follows it; `snapshot` reads it from the space): the order read before
+    # is the order after each reshape, of the body at the front, in the middle and at the back.
+    (tmp_path / "m.toml").write_text(MATERIALS)
+    balls = [
+        ball("m", position, radius=R).replace('id = "ball"', f'id = "{name}"')
+        for name, position in (
+            ("ball", "[0.0, 0.07, 0.0]"),
+            ("ball2", "[0.3, 0.2, 0.0]"),
+            ("ball3", "[-0.3, 0.2, 0.0]"),
+        )
+    ]
+    (tmp_path / "s.toml").write_text("\n".join([GRAVITY, plate("m", side=4.0), *balls]))
+    world = build_world(load_scene(tmp_path / "s.toml", load_materials([tmp_path / "m.toml"])))
+    try:
+        order = list(world.snapshot().order)
+        assert sorted(order) == ["ball", "ball2", "ball3", "plate"]
+        flat = _flattened(R / 4).rebuilt()
+        for body in [b for b in order if b != "plate"]:  # the plate is static: no reshape
+            world.set_surface(body, *flat)
+            assert list(world.snapshot().order) == order, body
+            world.reset_shape(body)
+            assert list(world.snapshot().order) == order, body
+    finally:
+        world.close()

@@ -324,6 +324,7 @@ class PhysicsWorld:
         geom's offset from the body (metres), its place in the space's order."""
         old = record.geom
         order = [ode.dSpaceGetGeom(self.space, i) for i in range(ode.dSpaceGetNumGeoms(self.space))]
+        order = [g for g in order if _addr(g) != _addr(geom)]  # made at the front: not yet placed
         at = next(i for i, g in enumerate(order) if _addr(g) == _addr(old))
         if record.body is not None:
             ode.dGeomSetBody(geom, record.body)
