@@ -12,13 +12,15 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# Under pytest-xdist (./scripts/test runs it) every worker is a process with its own llvmpipe,
-# whose rasteriser starts a thread per core: the workers together would run workers x cores
-# rasterising threads on the cores. Each worker gets its share, at least one, set before any GL
-# context exists; the command-line processes the tests start inherit it.
-_WORKERS = os.environ.get("PYTEST_XDIST_WORKER_COUNT")
-if _WORKERS and "LP_NUM_THREADS" not in os.environ:
-    os.environ["LP_NUM_THREADS"] = str(max(1, (os.cpu_count() or 1) // int(_WORKERS)))
+# llvmpipe draws in the thread that calls GL, with no rasterising threads (set before any GL
+# context exists; the command-line processes the tests start inherit it), unless the caller set
+# LP_NUM_THREADS. Mesa 22.3's llvmpipe reads a fence's count without its lock when it looks
+# for a scene to reuse, and may free the fence while a rasterising thread still unlocks the
+# fence's mutex: about one whole-suite run in sixteen died in malloc on a chunk of a fence's
+# size whose word at the mutex's offset had been zeroed (docs/performance.md, "The test suite").
+# Without those threads a fence is signalled before anyone looks, and under pytest-xdist (a
+# worker a core) the suite takes as long.
+os.environ.setdefault("LP_NUM_THREADS", "0")
 
 
 def pytest_collection_modifyitems(items):
