@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # llvmpipe draws in the thread that calls GL, with no rasterising threads (set before any GL
 # context exists; the command-line processes the tests start inherit it), unless the caller set
-# LP_NUM_THREADS. Mesa 22.3's llvmpipe reads a fence's count without its lock when it looks
+# LP_NUM_THREADS. llvmpipe (Mesa 22.3 here) reads a fence's count without its lock when it looks
 # for a scene to reuse, and may free the fence while a rasterising thread still unlocks the
 # fence's mutex: about one whole-suite run in sixteen died in malloc on a chunk of a fence's
 # size whose word at the mutex's offset had been zeroed (docs/performance.md, "The test suite").
