@@ -313,10 +313,11 @@ def _instanced(
         for members in same:
             emit([run[at] for at in members], lists[members[0]])
 
+    shapes = [shape(i) for i in range(len(jobs))]
     run: list[int] = []  # consecutive jobs that may share draws
     for i, (k, _) in enumerate(jobs):
-        joins = run and k == jobs[run[-1]][0] + 1 and shape(i) is not None
-        if not (joins and shape(i) == shape(run[-1])):
+        joins = run and k == jobs[run[-1]][0] + 1 and shapes[i] is not None
+        if not (joins and shapes[i] == shapes[run[-1]]):
             if run:
                 close(run)
             run = []
@@ -327,11 +328,11 @@ def _instanced(
 
 
 def _oblique(
-    target: CarveBody, camera: CollisionCamera, shared: NDArray[np.float64] | None = None
+    target: CarveBody, camera: CollisionCamera, shared: NDArray[np.float64] | None
 ) -> bool:
     """Whether any vertex normal of the triangles pass 4 draws (or a swept solid's surface) is
     not the press direction reversed, to float rounding. `shared`: a flat target's one normal
-    in the world (`_world_normals` of it), where the caller keeps it."""
+    in the world (`Carver._shared_normal`), or None for another target."""
     mesh = target.gpu_mesh.mesh
     if is_swept(mesh):
         return True  # a sphere or capsule's own normals
@@ -339,11 +340,7 @@ def _oblique(
         return False
     normals = shared
     if normals is None:
-        flat = mesh.shared_normal()  # a flat mesh (a plate): one normal to look at
-        if flat is not None:
-            local = flat[None, :]
-        else:
-            local = mesh.normals[np.unique(mesh.indices[camera.target_texels].ravel())]
+        local = mesh.normals[np.unique(mesh.indices[camera.target_texels].ravel())]
         normals = _world_normals(local, target.model)
     return bool((normals @ -camera.forward < 1.0 - 1e-6).any())
 
@@ -915,8 +912,8 @@ class Carver:
         )
 
     def _shared_normal(self, body: CarveBody) -> NDArray[np.float64] | None:
-        """A flat body's one normal in the world (`_oblique`), kept with its pose's uniforms
-        for the rest of the batch; None for another body."""
+        """A flat body's (a plate's) one normal in the world (`_oblique`), kept with its pose's
+        uniforms for the rest of the batch; None for another body."""
         mesh = body.gpu_mesh.mesh
         if is_swept(mesh):
             return None
