@@ -36,8 +36,8 @@ out float gl_ClipDistance[CLIP_DISTANCES];
 void main() {
 #if TILED
     int i = gl_PrimitiveIDIn;  // the triangle's place in the draw's list
-    // list_skip's 128 bits (carve/params.py, SUBSET_TRIANGLES): set where it is another job's.
-    if (i < 128 && ((u_list_skip[i >> 5] >> (i & 31)) & 1) != 0) return;
+    // list_skip's bits (carve/params.py, Subset): set where it is another job's.
+    if (i < SUBSET_TRIANGLES && ((u_list_skip[i >> 5] >> (i & 31)) & 1) != 0) return;
 #endif
     for (int k = 0; k < 3; ++k) {
         for (int i = 0; i < 3; ++i) {

@@ -26,11 +26,16 @@ from dentdemo.carve.camera import (
     camera_drafts,
     collision_cameras,
 )
-from dentdemo.carve.constants import NO_FRONT, NO_SURFACE, NO_TOOL, shader_defines
+from dentdemo.carve.constants import (
+    NO_FRONT,
+    NO_SURFACE,
+    NO_TOOL,
+    SUBSET_TRIANGLES,
+    shader_defines,
+)
 from dentdemo.carve.jobs import RECT_ENTRIES, JobTable, RectTable, job_entries
 from dentdemo.carve.linear import inverse3
 from dentdemo.carve.params import (
-    SUBSET_TRIANGLES,
     Advance,
     Draw,
     Gather,

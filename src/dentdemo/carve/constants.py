@@ -45,6 +45,9 @@ RING_TEXELS = 1.5
 #: least: 40 entries of 368 bytes fit GL 3.3's smallest uniform block (16 KiB); a context whose
 #: blocks hold more gets more (carve/jobs.py, `job_entries`).
 JOB_ENTRIES = 40
+#: Triangles a list may hold to be drawn for jobs of which each has some of them
+#: (`params.Subset`: a bit each in job.glsl's ivec4 list_skip, so at most 4 x 32).
+SUBSET_TRIANGLES = 128
 #: Address-map clear value of u: no target surface at that camera pixel.
 NO_SURFACE = -1.0
 #: The chart mask's bits (R8UI, one byte a texel): the texel itself lies inside a UV chart, then
@@ -68,6 +71,7 @@ def shader_defines(**extra: object) -> dict[str, object]:
         "GUTTER_REACH_TEXELS": repr(float(GUTTER_REACH_TEXELS)),
         "NO_SURFACE": repr(float(NO_SURFACE)),
         "JOB_ENTRIES": str(JOB_ENTRIES),
+        "SUBSET_TRIANGLES": str(SUBSET_TRIANGLES),
         **{
             name: f"{value}u"
             for name, value in (

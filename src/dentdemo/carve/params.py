@@ -155,14 +155,10 @@ class Draw(_Group):
 @dataclass(frozen=True)
 class Subset(_Group):
     """peel.geom (TILED 1): the triangles of an instanced draw's list (the union of its jobs'
-    lists, at most `SUBSET_TRIANGLES`) that are not this job's: bit i of the four ints (32
-    each) set where triangle i is another's; none set: every triangle is its own."""
+    lists, at most `constants.SUBSET_TRIANGLES`) that are not this job's: bit i of the four
+    ints (32 each) set where triangle i is another's; none set: every triangle is its own."""
 
     u_list_skip: tuple[int, int, int, int]
-
-
-#: Triangles a list may hold to be drawn for jobs of which each has some of them (`Subset`).
-SUBSET_TRIANGLES = 128
 
 
 #: The groups a job's entry in the batch's job table holds (carve/jobs.py): what every draw of
