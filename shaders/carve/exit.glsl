@@ -147,32 +147,36 @@ float normal_exit(vec3 rel, vec3 n, float depth, float stretch, float f0, float 
     float lo = 0.0, f_lo = f0;
     float hi = min(start, far), f_hi;
     bool on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
-    if (on_hi && f_hi < 0.0) {
-        for (int k = 0; k < EXIT_MARCH && on_hi && f_hi < 0.0; ++k) {  // inside: look further
+    // The march outwards (OUTWARDS), inwards (INWARDS) and the bisections (BISECT) are phases of
+    // one loop, one look-up a turn: a software rasteriser runs each loop until its last fragment
+    // is done, and both sides of an if, so three loops would cost each fragment the longest of
+    // each; one costs it the longest whole search. Each fragment looks at the distances it would
+    // in three loops, in the same order.
+    const int OUTWARDS = 0, INWARDS = 1, BISECT = 2;
+    int phase = on_hi && f_hi < 0.0 ? OUTWARDS : INWARDS;  // inside: look further; out: nearer
+    int march = 0, steps = 0;
+    for (int turn = 0; turn < EXIT_MARCH + EXIT_STEPS; ++turn) {
+        if (phase == INWARDS && !(march < EXIT_MARCH && hi > EXIT_FIRST_METRES)) phase = BISECT;
+        if (phase == BISECT && steps >= EXIT_STEPS) break;
+        float a = phase == BISECT ? 0.5 * (lo + hi)
+                : phase == INWARDS ? 0.5 * hi
+                : march == EXIT_MARCH - 1 ? far : min(2.0 * hi, far);
+        float f;
+        bool on = beyond(rel, n, depth, stretch, a, f);
+        bool inside = on && f < 0.0;
+        if (phase == OUTWARDS) {  // the bracket's inner end moves out to its outer end
+            ++march;
             lo = hi;
             f_lo = f_hi;
-            hi = k == EXIT_MARCH - 1 ? far : min(2.0 * hi, far);
-            on_hi = beyond(rel, n, depth, stretch, hi, f_hi);
+            if (!inside) phase = BISECT;
+            else if (march == EXIT_MARCH) return a;  // inside at the bound (depth range misses it)
+        } else if (phase == INWARDS) {
+            ++march;
+            if (inside) phase = BISECT;
+        } else {
+            ++steps;
         }
-        if (on_hi && f_hi < 0.0) return hi;  // inside at the bound (the depth range misses it)
-    } else {
-        for (int k = 0; k < EXIT_MARCH && hi > EXIT_FIRST_METRES; ++k) {  // out: look nearer
-            float a = 0.5 * hi, f;
-            bool on = beyond(rel, n, depth, stretch, a, f);
-            if (on && f < 0.0) {
-                lo = a;
-                f_lo = f;
-                break;
-            }
-            hi = a;
-            f_hi = f;
-            on_hi = on;
-        }
-    }
-    for (int k = 0; k < EXIT_STEPS; ++k) {
-        float a = 0.5 * (lo + hi), f;
-        bool on = beyond(rel, n, depth, stretch, a, f);
-        if (on && f < 0.0) {
+        if (inside && phase != OUTWARDS) {
             lo = a;
             f_lo = f;
         } else {
