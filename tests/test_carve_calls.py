@@ -18,7 +18,7 @@ from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import CarveBody, Carver, CarverOptions, Press
 from dentdemo.carve.constants import JOB_ENTRIES
 from dentdemo.gl.library import gl_library
-from dentdemo.gl.passes import _OFF
+from dentdemo.gl.passes import OFF
 from dentdemo.model.shapes import Plate, Sphere
 from surface_helpers import Bodies, press_mesh, translation
 
@@ -102,7 +102,7 @@ def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatc
             carver.carve_many(presses)
         finally:
             gl_.__class__ = plain
-        for cap in _OFF:
+        for cap in OFF:
             assert calls["glDisable", cap] <= 3, hex(cap)
         for k in range(6):  # GL_CLIP_DISTANCE0 + k
             assert calls["glEnable", 0x3000 + k] == 1, k

@@ -35,7 +35,7 @@ TEXTURE_UNITS = 8
 #: Capabilities no pass declares, kept off during every pass (glDisable): scissor and stencil
 #: tests, polygon offset (fill, line, point), depth clamp, primitive restart, logic op,
 #: alpha-to-coverage, sample coverage, sample mask, sRGB framebuffer writes.
-_OFF = (
+OFF = (
     0x0C11,  # GL_SCISSOR_TEST
     0x0B90,  # GL_STENCIL_TEST
     0x8037,  # GL_POLYGON_OFFSET_FILL
@@ -111,9 +111,9 @@ class HeldState:
         self, ctx: moderngl.Context, neutral: bool = False, units: int = TEXTURE_UNITS
     ) -> None:
         self._ctx = ctx
-        #: The value each setting was given, by name ("off": `_OFF` switched off); empty:
+        #: The value each setting was given, by name ("off": `OFF` switched off); empty:
         #: nothing known.
-        self._held: dict[str, object] = dict(_NEUTRAL) if neutral else {}
+        self._held: dict[str, object] = dict(NEUTRAL) if neutral else {}
         #: What each texture unit holds, as `shared_batch` bound it (its sampler object too).
         self.units: dict[int, Sampled] = {}
         #: The units known to have no sampler object bound (`bind` need not unbind one).
@@ -136,7 +136,7 @@ class HeldState:
         face or blend is left as it was where its test is off."""
         held = self._held
         if "off" not in held:
-            for capability in _OFF:
+            for capability in OFF:
                 gl_library().glDisable(capability)
             held["off"] = True
         flags = (
@@ -173,10 +173,10 @@ class HeldState:
     def leave(self) -> None:
         """Put back `neutral` state: what differs from it where everything is known (the run
         started from it and nothing was forgotten), else all of it."""
-        if not all(name in self._held for name in _NEUTRAL):
+        if not all(name in self._held for name in NEUTRAL):
             neutral(self._ctx)
             return
-        self._set(_NEUTRAL)
+        self._set(NEUTRAL)
         for unit in range(self._units):
             if unit not in self.bare:
                 self._ctx.clear_samplers(unit, unit + 1)
@@ -225,8 +225,10 @@ def held_state(
         held.set_depth_mask(bool(fbo.depth_mask) if fbo is not None else True)
 
 
-#: `neutral` state as `HeldState` keeps it.
-_NEUTRAL: dict[str, object] = {
+#: `neutral` state, by the names `HeldState` keeps it under and in moderngl's terms ("off":
+#: `OFF` switched off; "flags": moderngl's enable flags, none on). `gl.state` reads GL's enums
+#: for these from here.
+NEUTRAL: dict[str, object] = {
     "off": True,
     "flags": 0,
     "depth_func": "<",
@@ -239,22 +241,19 @@ _NEUTRAL: dict[str, object] = {
 
 
 def neutral(ctx: moderngl.Context) -> None:
-    """The state each pass leaves, whatever came before: moderngl's defaults for what a pass may
-    declare (depth test, culling and blending off, depth function "<", cull face "back", front
-    face "ccw", default blend, filled polygons), clip distances and the capabilities no pass
-    declares off (with rasterizer discard and program point size), and no sampler object on
-    units 0 .. TEXTURE_UNITS - 1. `gl.state.preserved` starts each public call from it, so
-    draws and clears outside `Pass.run` (the chart mask, the environment bake) see none of the
-    host's state either."""
+    """The state each pass leaves, whatever came before (`NEUTRAL`): moderngl's defaults for
+    what a pass may declare (depth test, culling and blending off, depth function "<", cull
+    face "back", front face "ccw", default blend, filled polygons), clip distances and the
+    capabilities no pass declares off (with rasterizer discard and program point size), and no
+    sampler object on units 0 .. TEXTURE_UNITS - 1. `gl.state.preserved` starts each public
+    call from it, so draws and clears outside `Pass.run` (the chart mask, the environment
+    bake) see none of the host's state either."""
     gl = gl_library()
-    for capability in (*_OFF, *(GL_CLIP_DISTANCE0 + i for i in range(MAX_CLIP_DISTANCES))):
+    for capability in OFF:
         gl.glDisable(capability)
-    ctx.enable_only(0)  # none
-    ctx.depth_func = "<"
-    ctx.cull_face = "back"
-    ctx.front_face = "ccw"
-    _set_blend(DEFAULT_BLEND)
-    ctx.wireframe = False
+    for name, value in NEUTRAL.items():
+        if name != "off":
+            _SETTERS[name](ctx, value)
     ctx.clear_samplers(0, TEXTURE_UNITS)
 
 

@@ -11,14 +11,14 @@ from __future__ import annotations
 import ctypes
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import astuple, dataclass
+from typing import Any, cast
 
 import moderngl
 
 from dentdemo.gl.context import check_current, parking_framebuffer
 from dentdemo.gl.library import gl_library as _gl
-from dentdemo.gl.passes import DEFAULT_BLEND, TEXTURE_UNITS
+from dentdemo.gl.passes import NEUTRAL, OFF, TEXTURE_UNITS, Blend
 
 # Capabilities a pass or a host may switch (glEnable / glDisable).
 CAPABILITIES = {
@@ -169,13 +169,23 @@ def capture(units: int = TEXTURE_UNITS) -> GLState:
     )
 
 
-#: What `neutral` sets, as GL reports it: the capabilities it switches off, and the values it
-#: gives the integer state it sets.
-_NEUTRAL_OFF = frozenset(CAPABILITIES) - {"multisample"}
+def _gl_value(names: dict[int, str], name: object) -> int:
+    """GL's enum for moderngl's `name` of it."""
+    return next(value for value, known in names.items() if known == name)
+
+
+#: What `neutral` (`passes.NEUTRAL`) sets, as GL reports it: the capabilities it switches off
+#: (`OFF`, the clip distances and moderngl's enable flags: all but multisampling), and the
+#: values it gives the integer state and the blend it sets.
+_NEUTRAL_OFF = frozenset(
+    name
+    for name, capability in CAPABILITIES.items()
+    if capability in OFF or name.startswith("clip_distance") or name in _FLAGS
+)
 _NEUTRAL_INTEGERS = {
-    "depth_func": (0x0201,),  # GL_LESS
-    "cull_face_mode": (0x0405,),  # GL_BACK
-    "front_face": (0x0901,),  # GL_CCW
+    "depth_func": (_gl_value(_COMPARE_NAMES, NEUTRAL["depth_func"]),),
+    "cull_face_mode": (_gl_value(_FACE_NAMES, NEUTRAL["cull_face"]),),
+    "front_face": (_gl_value(_WINDING_NAMES, NEUTRAL["front_face"]),),
 }
 _BLEND = (
     "blend_src_rgb",
@@ -185,14 +195,7 @@ _BLEND = (
     "blend_equation_rgb",
     "blend_equation_alpha",
 )
-_NEUTRAL_BLEND = (
-    DEFAULT_BLEND.src_rgb,
-    DEFAULT_BLEND.dst_rgb,
-    DEFAULT_BLEND.src_alpha,
-    DEFAULT_BLEND.dst_alpha,
-    DEFAULT_BLEND.equation_rgb,
-    DEFAULT_BLEND.equation_alpha,
-)
+_NEUTRAL_BLEND = astuple(cast(Blend, NEUTRAL["blend"]))
 #: The capabilities `_record` sets exactly (through moderngl's enable flags).
 _RECORDED = frozenset(_FLAGS)
 #: Those `neutral` switches off directly (the enable flags go through moderngl).
@@ -213,16 +216,16 @@ def to_neutral(ctx: moderngl.Context, state: GLState) -> None:
         if state.enabled[name]:
             gl.glDisable(CAPABILITIES[name])
     if i["depth_func"] != _NEUTRAL_INTEGERS["depth_func"]:
-        ctx.depth_func = "<"
+        ctx.depth_func = str(NEUTRAL["depth_func"])
     if i["cull_face_mode"] != _NEUTRAL_INTEGERS["cull_face_mode"]:
-        ctx.cull_face = "back"
+        ctx.cull_face = str(NEUTRAL["cull_face"])
     if i["front_face"] != _NEUTRAL_INTEGERS["front_face"]:
-        ctx.front_face = "ccw"
+        ctx.front_face = str(NEUTRAL["front_face"])
     if _blend(state) != _NEUTRAL_BLEND:
         gl.glBlendFuncSeparate(*_NEUTRAL_BLEND[:4])
         gl.glBlendEquationSeparate(*_NEUTRAL_BLEND[4:])
     if i["polygon_mode"][0] != _FILL:
-        ctx.wireframe = False
+        ctx.wireframe = bool(NEUTRAL["wireframe"])
     for unit, sampler in enumerate(state.units["sampler"]):
         if sampler:
             ctx.clear_samplers(unit, unit + 1)
