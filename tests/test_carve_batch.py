@@ -9,7 +9,9 @@ import math
 
 import numpy as np
 import pytest
+import trimesh
 
+import dentdemo
 from dentdemo.carve.camera import ContactFrame
 from dentdemo.carve.carver import Carver, CarverOptions, _Switches
 from dentdemo.model.shapes import Box, Capsule, Cylinder, Plate, Sphere
@@ -194,7 +196,6 @@ def test_a_body_can_be_target_and_tool_in_one_batch(gl):
 def test_press_many_in_the_public_api(gl):
     """press_many checks every press before any GPU work, says which could meet, and dents as
     the presses one by one would where they do not overlap."""
-    import dentdemo
     from dentdemo.errors import ArgumentError
 
     ctx = gl.ctx
@@ -222,6 +223,61 @@ def test_press_many_in_the_public_api(gl):
         assert not balls[1].heights().any()
     finally:
         for thing in (carver, *balls, *plates):
+            thing.release()
+
+
+def test_a_target_that_hides_part_of_itself_dents_in_a_batch_as_alone(gl):
+    """A target that is not convex (a ring about +Y: pass 2 draws its address map, and pass 4
+    reads it, CONVEX 0) pressed outwards into its inner equator by four balls in its hole, 97
+    degrees apart: the batch, in either order, gives the heights and normals of the four
+    presses made one by one (the batches above press convex targets only)."""
+    ctx = gl.ctx
+    ring = trimesh.creation.torus(0.1, 0.04, major_sections=96, minor_sections=48)
+    ring.apply_transform(trimesh.transformations.rotation_matrix(-math.pi / 2, (1, 0, 0)))
+    radius = 0.015
+    presses = []
+    for k in range(4):
+        a = math.radians(97 * k)
+        direction = np.array([math.cos(a), 0.0, math.sin(a)])
+        presses.append((0.06 * direction, direction))  # the inner equator, pressed outwards
+    made: list = []
+
+    def pressed(order: list[int], batch: bool) -> tuple[np.ndarray, np.ndarray]:
+        target = dentdemo.DentableSurface(ctx, ring, 512, max_dent_depth=0.01)
+        carver = dentdemo.Carver(ctx)
+        made.extend([target, carver])
+        hits = []
+        for k in order:
+            point, direction = presses[k]
+            ball = dentdemo.DentableSurface(ctx, dentdemo.shape_mesh(dentdemo.Sphere(radius)), 64)
+            made.append(ball)
+            ball.model = translation(point - direction * radius)
+            hits.append((target, ball, dentdemo.Contact(point, direction), 0.003))
+        drawn: list[str] = []
+        inner = carver._live()
+        passes = inner._camera_passes
+
+        def recorded(name, *rest, passes=passes):  # noqa: ANN001, ANN002, ANN202
+            drawn.append(name)
+            passes(name, *rest)
+
+        inner._camera_passes = recorded
+        if batch:
+            assert carver.press_many(hits) == [True] * len(hits)
+        else:
+            assert all(carver.press(*hit) for hit in hits)
+        assert "address" in drawn  # the ring is not convex: pass 2 drew
+        return target.heights(), gl.read(target.normal)
+
+    try:
+        h_alone, n_alone = pressed([0, 1, 2, 3], batch=False)
+        assert (h_alone < DENTED).sum() > 400
+        for order in ([0, 1, 2, 3], [3, 2, 1, 0]):
+            h, n = pressed(order, batch=True)
+            assert np.array_equal(h, h_alone)
+            assert np.array_equal(n, n_alone)
+    finally:
+        for thing in made:
             thing.release()
 
 
