@@ -134,17 +134,13 @@ class HeldState:
         colour and depth masks and switches the scissor test off; `depth` False: it has no
         depth buffer, so the depth mask is left as binding it set it). A depth function, cull
         face or blend is left as it was where its test is off."""
-        held = self._held
-        if "off" not in held:
-            for capability in OFF:
-                gl_library().glDisable(capability)
-            held["off"] = True
         flags = (
             (moderngl.DEPTH_TEST if state.depth_test else 0)
             | (moderngl.CULL_FACE if state.cull else 0)
             | (moderngl.BLEND if state.blend is not None else 0)
         )
         values: dict[str, object] = {
+            "off": True,
             "flags": flags,
             "depth_func": state.depth_func if state.depth_test else None,
             "cull_face": state.cull,
@@ -192,6 +188,7 @@ def _clip_setter(i: int) -> Callable[[moderngl.Context, bool], None]:
 #: How each setting `HeldState` keeps is set: setter(ctx, value) (through the context's own
 #: methods, looked up at each call, as `bench.glcount` counts them).
 _SETTERS: dict[str, Callable[[moderngl.Context, Any], None]] = {
+    "off": lambda ctx, _: _switch_off(),
     # enable_only also switches off rasterizer discard and program point size.
     "flags": lambda ctx, flags: ctx.enable_only(flags),
     "depth_func": lambda ctx, func: setattr(ctx, "depth_func", func),
@@ -201,6 +198,12 @@ _SETTERS: dict[str, Callable[[moderngl.Context, Any], None]] = {
     "wireframe": lambda ctx, on: setattr(ctx, "wireframe", on),
     **{f"clip{i}": _clip_setter(i) for i in range(MAX_CLIP_DISTANCES)},
 }
+
+
+def _switch_off() -> None:
+    gl = gl_library()
+    for capability in OFF:
+        gl.glDisable(capability)
 
 
 def _clip_distance(i: int, on: bool) -> None:
@@ -248,12 +251,8 @@ def neutral(ctx: moderngl.Context) -> None:
     sampler object on units 0 .. TEXTURE_UNITS - 1. `gl.state.preserved` starts each public
     call from it, so draws and clears outside `Pass.run` (the chart mask, the environment
     bake) see none of the host's state either."""
-    gl = gl_library()
-    for capability in OFF:
-        gl.glDisable(capability)
     for name, value in NEUTRAL.items():
-        if name != "off":
-            _SETTERS[name](ctx, value)
+        _SETTERS[name](ctx, value)
     ctx.clear_samplers(0, TEXTURE_UNITS)
 
 
