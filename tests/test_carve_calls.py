@@ -7,6 +7,7 @@ capabilities no pass uses switched off a bounded number of times a batch, whatev
 
 from __future__ import annotations
 
+import ctypes
 import math
 from collections import Counter
 
@@ -69,18 +70,30 @@ def test_a_bursts_ball_quads_are_drawn_instanced(gl, monkeypatch, hits):
         bodies.release()
 
 
-def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatch):
+#: GL enums of what a hostile host's work switches on between the gathers and the normal
+#: rebuilds (`meanwhile`), and of the sampler binding of the unit it binds a sampler to.
+_HOSTILE = (0x0BE2, 0x0B71, 0x0B44, 0x0C11, 0x8C89, 0x3000 + 7)  # blend, depth test, cull
+# face, scissor test, rasterizer discard, clip distance 7
+_SAMPLER_BINDING, _ACTIVE_TEXTURE, _TEXTURE0 = 0x8919, 0x84E0, 0x84C0
+
+
+@pytest.mark.parametrize("host_work", [False, True])
+def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatch, host_work):
     """A batch of 16 hits runs passes 3, 4 and 5 (and pass 2 for every target with
-    `address_every_target`): each capability that no pass uses is switched off at most three
-    times in the batch (the neutral state it starts from, the first pass, the neutral state it
-    leaves), not once or twice a pass; and the six clip distances, which every carve pass
-    enables alike (those it does not use hold 1), are switched on once for the batch (and off
-    only by the neutral state it starts from and the one it leaves)."""
+    `address_every_target`). Each capability that no pass uses is switched off once, by the
+    neutral state the batch starts from, and not again by the one it leaves (it knows they are
+    off); with the host's work run meanwhile (`meanwhile`, which here switches on what the
+    passes leave off and binds a sampler object), once more by the first pass after it. The six
+    clip distances, which every carve pass enables alike, are switched on once for the batch
+    (twice with the host's work) and off by the neutral state it starts from and, only where
+    a pass left them on, the one it leaves. Whatever the host did, the batch leaves the neutral
+    state: those capabilities off, no sampler object on any unit."""
     bodies = Bodies(gl)
     carver = Carver(gl, CarverOptions(keep_host_state=False, address_every_target=True))
     gl_ = gl_library()
     calls: Counter[tuple[str, int]] = Counter()
     plain = type(gl_)
+    sampler = gl.ctx.sampler()
 
     class Counted(plain):  # type: ignore[valid-type, misc]
         def __getattribute__(self, name: str):  # noqa: ANN204
@@ -94,20 +107,36 @@ def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatc
                 return wrapped
             return function
 
+    def hostile() -> None:
+        for cap in _HOSTILE:
+            plain.__getattribute__(gl_, "glEnable")(cap)
+        sampler.use(5)
+
     try:
         presses = _burst(bodies, 16)
         carver.carve_many(presses)
         gl_.__class__ = Counted
         try:
-            carver.carve_many(presses)
+            carver.carve_many(presses, meanwhile=hostile if host_work else None)
         finally:
             gl_.__class__ = plain
+        left_on = [hex(cap) for cap in (*OFF, *_HOSTILE) if gl_.glIsEnabled(cap)]
+        bound = []
+        for unit in range(8):
+            gl_.glActiveTexture(_TEXTURE0 + unit)
+            value = ctypes.c_int(-1)
+            gl_.glGetIntegerv(_SAMPLER_BINDING, ctypes.byref(value))
+            bound.append(value.value)
+        gl_.glActiveTexture(_TEXTURE0)
         for cap in OFF:
-            assert calls["glDisable", cap] <= 3, hex(cap)
+            assert calls["glDisable", cap] == 1 + host_work, hex(cap)
         for k in range(6):  # GL_CLIP_DISTANCE0 + k
-            assert calls["glEnable", 0x3000 + k] == 1, k
+            assert calls["glEnable", 0x3000 + k] == 1 + host_work, k
             assert calls["glDisable", 0x3000 + k] <= 2, k
+        assert left_on == []
+        assert bound == [0] * 8
     finally:
+        sampler.release()
         carver.release()
         bodies.release()
 

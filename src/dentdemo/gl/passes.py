@@ -118,7 +118,9 @@ class HeldState:
         self.units: dict[int, Sampled] = {}
         #: The units known to have no sampler object bound (`bind` need not unbind one).
         self.bare: set[int] = set(range(units)) if neutral else set()
-        self._units = units
+        #: The units `leave` clears where not `bare`: the run's own, or after `forget` (or
+        #: when nothing was known) every unit `neutral` clears.
+        self._units = units if neutral else TEXTURE_UNITS
         #: The depth mask as last set (binding a framebuffer sets its own), or None: unknown.
         self.depth_mask: bool | None = None
 
@@ -127,6 +129,7 @@ class HeldState:
         self._held.clear()
         self.units.clear()
         self.bare.clear()
+        self._units = TEXTURE_UNITS
         self.depth_mask = None
 
     def apply(self, state: PassState, depth: bool = True) -> None:
@@ -167,15 +170,21 @@ class HeldState:
                 held[name] = value
 
     def leave(self) -> None:
-        """Put back `neutral` state: what differs from it where everything is known (the run
-        started from it and nothing was forgotten), else all of it."""
-        if not all(name in self._held for name in NEUTRAL):
-            neutral(self._ctx)
-            return
+        """Put back `neutral` state: each setting not known to hold its neutral value (after
+        `forget`, those the passes since have not set), and no sampler object on the units not
+        known to have none, a run of such units in one call."""
         self._set(NEUTRAL)
-        for unit in range(self._units):
-            if unit not in self.bare:
-                self._ctx.clear_samplers(unit, unit + 1)
+        unit, last = 0, self._units
+        while unit < last:
+            if unit in self.bare:
+                unit += 1
+                continue
+            end = unit + 1
+            while end < last and end not in self.bare:
+                end += 1
+            self._ctx.clear_samplers(unit, end)
+            self.bare.update(range(unit, end))
+            unit = end
 
 
 _UNKNOWN = object()
