@@ -26,6 +26,7 @@ from dentdemo.carve.undo import (
     packed,
     size_class,
 )
+from dentdemo.gl.library import gl_library
 from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model.shapes import Plane
 
@@ -321,6 +322,53 @@ def test_a_snapshot_makes_no_framebuffer_and_undoes_bit_for_bit(gl, scene, monke
         assert len(log) == 1 and log.entries[-1] and not made
         assert _maps(gl, plate, ball) != before
         assert carver.undo()
+        assert _maps(gl, plate, ball) == before, _differences(_maps(gl, plate, ball), before)
+    finally:
+        log.release()
+
+
+def test_each_snapshot_texture_is_attached_once_a_record_and_an_undo(gl, scene):
+    """A press's entry holds four copies (each body's height and normal rectangle) into one
+    pair of textures: recording it attaches each of the two textures once to the log's draw
+    framebuffer, and undoing it once to its read framebuffer (the copies into or out of one
+    texture run one after the other), not once a copy; undo still puts both maps back bit for
+    bit."""
+    plate, ball, carver = scene
+    log = _own_log(carver, UNDO_DEPTH, UNDO_BYTES)
+    gl_ = gl_library()
+    plain = type(gl_)
+    attached: list[tuple[int, int]] = []
+
+    class Counted(plain):  # type: ignore[valid-type, misc]
+        def __getattribute__(self, name: str):  # noqa: ANN204
+            function = plain.__getattribute__(self, name)
+            if name == "glFramebufferTexture2D":
+
+                def wrapped(target, attachment, kind, texture, level, function=function):  # noqa: ANN001, ANN202
+                    attached.append((int(target), int(texture)))
+                    return function(target, attachment, kind, texture, level)
+
+                return wrapped
+            return function
+
+    try:
+        before = _maps(gl, plate, ball)
+        gl_.glFramebufferTexture2D  # noqa: B018 - looked up once (ctypes keeps it) before counting
+        gl_.__class__ = Counted
+        try:
+            assert _press(carver, plate, ball, 1)
+            (entry,) = log.entries
+            recorded = list(attached)
+            attached.clear()
+            assert carver.undo()
+        finally:
+            gl_.__class__ = plain
+        pair = {entry.textures.height.glo, entry.textures.normal.glo}
+        assert len(list(entry)) == 2  # one rectangle a body: four copies
+        assert sorted(texture for _, texture in recorded) == sorted(pair)
+        assert {target for target, _ in recorded} == {0x8CA9}  # GL_DRAW_FRAMEBUFFER
+        assert sorted(texture for _, texture in attached) == sorted(pair)
+        assert {target for target, _ in attached} == {0x8CA8}  # GL_READ_FRAMEBUFFER
         assert _maps(gl, plate, ball) == before, _differences(_maps(gl, plate, ball), before)
     finally:
         log.release()

@@ -408,13 +408,16 @@ class UndoLog:
             return False
         entry = self.entries.pop()
         pair = entry.textures
-        copies: list[Copy] = []
-        for snap in entry:  # the rectangles of one entry and map are disjoint: any order
-            x, y, w, h = snap.rect
-            copies += [
-                (pair.height, snap.at, snap.maps.height_fbo, (x, y), w, h),
-                (pair.normal, snap.at, snap.maps.normal_fbo, (x, y), w, h),
-            ]
+        # The rectangles of one entry and map are disjoint: any order; every height, then every
+        # normal, so that each snapshot texture is attached once (`_blit`).
+        copies: list[Copy] = [
+            (pair.height, snap.at, snap.maps.height_fbo, snap.rect[:2], *snap.rect[2:])
+            for snap in entry
+        ]
+        copies += [
+            (pair.normal, snap.at, snap.maps.normal_fbo, snap.rect[:2], *snap.rect[2:])
+            for snap in entry
+        ]
         with preserved(self.gl.ctx):
             self._blit(copies)
             wait_for_writes(self.gl)
@@ -481,14 +484,20 @@ class UndoLog:
         is read or written through one of the log's two framebuffers, attached for the copy
         (making a framebuffer per snapshot cost llvmpipe as much as its two textures). A map's
         framebuffer (moderngl's) is bound first and again afterwards: moderngl applies its
-        colour mask (ours write all) and keeps it as the one bound."""
+        colour mask (ours write all) and keeps it as the one bound. A side is bound (and a
+        snapshot texture attached) only where it differs from the copy before's."""
         gl = gl_library()
         maps = next(side for copy in copies for side in (copy[0], copy[2]) if _is_fbo(side))
         maps.use()
         read, draw = self._framebuffers()
+        bound: list[Side | None] = [None, None]  # the read side and the draw side
         for source, (sx, sy), target, (tx, ty), w, h in copies:
-            _bind(gl, _READ_FRAMEBUFFER, source, read)
-            _bind(gl, _DRAW_FRAMEBUFFER, target, draw)
+            if source is not bound[0]:
+                _bind(gl, _READ_FRAMEBUFFER, source, read)
+                bound[0] = source
+            if target is not bound[1]:
+                _bind(gl, _DRAW_FRAMEBUFFER, target, draw)
+                bound[1] = target
             gl.glBlitFramebuffer(
                 sx, sy, sx + w, sy + h, tx, ty, tx + w, ty + h, _COLOR_BUFFER_BIT, _NEAREST
             )
