@@ -77,17 +77,18 @@ _HOSTILE = (0x0BE2, 0x0B71, 0x0B44, 0x0C11, 0x8C89, 0x3000 + 7)  # blend, depth 
 _SAMPLER_BINDING, _ACTIVE_TEXTURE, _TEXTURE0 = 0x8919, 0x84E0, 0x84C0
 
 
-@pytest.mark.parametrize("host_work", [False, True])
+@pytest.mark.parametrize("host_work", ["none", "gl", "cpu"])
 def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatch, host_work):
     """A batch of 16 hits runs passes 3, 4 and 5 (and pass 2 for every target with
     `address_every_target`). Each capability that no pass uses is switched off once, by the
     neutral state the batch starts from, and not again by the one it leaves (it knows they are
-    off); with the host's work run meanwhile (`meanwhile`, which here switches on what the
-    passes leave off and binds a sampler object), once more by the first pass after it. The six
+    off); with the host's GL work run meanwhile ("gl": `meanwhile` switches on what the passes
+    leave off and binds a sampler object), once more by the first pass after it; with CPU
+    work promised to make no GL call ("cpu": `meanwhile_uses_gl` False), not again. The six
     clip distances, which every carve pass enables alike, are switched on once for the batch
-    (twice with the host's work) and off by the neutral state it starts from and, only where
-    a pass left them on, the one it leaves. Whatever the host did, the batch leaves the neutral
-    state: those capabilities off, no sampler object on any unit."""
+    (twice after the host's GL work) and off by the neutral state it starts from and, only
+    where a pass left them on, the one it leaves. Whatever the host did, the batch leaves the
+    neutral state: those capabilities off, no sampler object on any unit."""
     bodies = Bodies(gl)
     carver = Carver(gl, CarverOptions(keep_host_state=False, address_every_target=True))
     gl_ = gl_library()
@@ -112,12 +113,16 @@ def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatc
             plain.__getattribute__(gl_, "glEnable")(cap)
         sampler.use(5)
 
+    ran: list[bool] = []
+    meanwhile = {"none": None, "gl": hostile, "cpu": lambda: ran.append(True)}[host_work]
+    again = host_work == "gl"  # the state is set again after the host's work
+
     try:
         presses = _burst(bodies, 16)
         carver.carve_many(presses)
         gl_.__class__ = Counted
         try:
-            carver.carve_many(presses, meanwhile=hostile if host_work else None)
+            carver.carve_many(presses, meanwhile=meanwhile, meanwhile_uses_gl=host_work != "cpu")
         finally:
             gl_.__class__ = plain
         left_on = [hex(cap) for cap in (*OFF, *_HOSTILE) if gl_.glIsEnabled(cap)]
@@ -128,10 +133,11 @@ def test_each_pass_sets_only_the_state_that_differs_from_the_last(gl, monkeypatc
             gl_.glGetIntegerv(_SAMPLER_BINDING, ctypes.byref(value))
             bound.append(value.value)
         gl_.glActiveTexture(_TEXTURE0)
+        assert ran == ([True] if host_work == "cpu" else [])
         for cap in OFF:
-            assert calls["glDisable", cap] == 1 + host_work, hex(cap)
+            assert calls["glDisable", cap] == 1 + again, hex(cap)
         for k in range(6):  # GL_CLIP_DISTANCE0 + k
-            assert calls["glEnable", 0x3000 + k] == 1 + host_work, k
+            assert calls["glEnable", 0x3000 + k] == 1 + again, k
             assert calls["glDisable", 0x3000 + k] <= 2, k
         assert left_on == []
         assert bound == [0] * 8

@@ -232,6 +232,89 @@ def test_impact_queue_never_drops_a_hit(gl):
     sim.close()
 
 
+def test_the_work_the_sandbox_runs_beside_its_gathers_makes_no_gl_call(gl, monkeypatch):
+    """The simulation tells its carver that its `meanwhile` (the dents' statistics and the
+    collision proxies' presses) makes no GL call, so that the batch keeps what it knows of the
+    GL state: through 60 frames of dropped balls, every such call raises (moderngl's objects and
+    the raw GL library), the batches still carve, and their maps are those of a run that lets
+    the batch set its state again."""
+    import moderngl
+
+    from dentdemo.app.simulation import Simulation
+    from dentdemo.carve.carver import Carver
+    from dentdemo.gl.library import gl_library
+
+    lib = load_materials()
+    scene = load_scene(BALL_DROP, lib)
+    runs: list[int] = []
+    plain = type(gl_library())
+
+    def refuse(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        raise AssertionError("a GL call in the work run beside the gathers")
+
+    class Refusing(plain):  # type: ignore[valid-type, misc]
+        def __getattribute__(self, name: str):  # noqa: ANN204
+            if name.startswith("gl"):
+                refuse()
+            return plain.__getattribute__(self, name)
+
+    carve_many = Carver.carve_many
+
+    def checked(self, presses, meanwhile=None, **kwargs):  # noqa: ANN001, ANN003, ANN202
+        def guarded() -> None:
+            runs.append(kwargs.get("meanwhile_uses_gl", True))
+            with monkeypatch.context() as patch:
+                for cls in (
+                    moderngl.Context,
+                    moderngl.Texture,
+                    moderngl.Framebuffer,
+                    moderngl.Buffer,
+                    moderngl.VertexArray,
+                    moderngl.Program,
+                ):
+                    for name, member in list(vars(cls).items()):
+                        if callable(member) and not name.startswith("__"):
+                            patch.setattr(cls, name, refuse)
+                library = gl_library()
+                library.__class__ = Refusing
+                try:
+                    meanwhile()
+                finally:
+                    library.__class__ = plain
+
+        return carve_many(self, presses, None if meanwhile is None else guarded, **kwargs)
+
+    def run(guard: bool) -> list[bytes]:
+        sim = Simulation(gl, scene, lib)
+        for i in range(6):
+            sim.drop_ball((-0.3 + i * 0.12, 0.25, 0.0), material="steel", radius=0.03)
+        with monkeypatch.context() as patch:
+            if guard:
+                patch.setattr(Carver, "carve_many", checked)
+            else:  # the batch told nothing: it sets the state again after the host's work
+                patch.setattr(
+                    Carver,
+                    "carve_many",
+                    lambda self, presses, meanwhile=None, **kw: carve_many(
+                        self, presses, meanwhile
+                    ),
+                )
+            for _ in range(60):
+                sim.step()
+        assert sim.stats.hits > 0
+        maps = [
+            gl.read(body.maps.height).tobytes() + gl.read(body.maps.normal).tobytes()
+            for body in sim.bodies.values()
+            if body.maps is not None
+        ]
+        sim.close()
+        return maps
+
+    guarded_maps = run(True)
+    assert runs and not any(runs)  # ran, promised to make no GL call
+    assert guarded_maps == run(False)
+
+
 @pytest.mark.slow
 def test_real_window_screenshot_under_xvfb(xvfb, tmp_path):
     shot = tmp_path / "shot.png"

@@ -282,7 +282,7 @@ class Simulation:
         grooves = self.wear.take(self) if self.wear is not None else []
         if presses or grooves:
 
-            def follow() -> None:  # reads no map: the carve runs it while its gathers are drawn
+            def follow() -> None:  # no GL call: the carve runs it while its gathers are drawn
                 for request, _ in presses:
                     for body_id, depth in (
                         (request.impact.body_a, request.depth_a),
@@ -294,7 +294,9 @@ class Simulation:
                     self._follow_dents(request)
 
             # One batch: every hit reads the heights from before it (docs/carve.md, "Batches").
-            self.carver.carve_many([press for _, press in presses] + grooves, meanwhile=follow)
+            self.carver.carve_many(
+                [press for _, press in presses] + grooves, meanwhile=follow, meanwhile_uses_gl=False
+            )
             carved = self.wear.taken if grooves and self.wear is not None else []
             for recorder in self.recorders:
                 recorder.batch(self, [request for request, _ in presses], carved)

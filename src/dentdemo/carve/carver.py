@@ -605,7 +605,11 @@ class Carver:
         return self.carve_many([Press(target, tool, contact, target_depth, tool_depth)])
 
     def carve_many(
-        self, presses: Sequence[Press], meanwhile: Callable[[], None] | None = None
+        self,
+        presses: Sequence[Press],
+        meanwhile: Callable[[], None] | None = None,
+        *,
+        meanwhile_uses_gl: bool = True,
     ) -> list[CarveJob]:
         """Every hit of `presses` in one batch (docs/carve.md, "Batches"): all of them read the
         heights from before the batch, each pass runs once for all hits, and where two hits dent
@@ -613,17 +617,26 @@ class Carver:
         together is carved as consecutive batches. Returns the directions carved. `meanwhile`:
         the host's CPU work that reads no map, run once while the gathers are drawn (see
         `carve_hits`)."""
-        return self.carve_hits(self.plan_many(presses), meanwhile)
+        return self.carve_hits(
+            self.plan_many(presses), meanwhile, meanwhile_uses_gl=meanwhile_uses_gl
+        )
 
     def carve_hits(
-        self, hits: list[list[CarveJob]], meanwhile: Callable[[], None] | None = None
+        self,
+        hits: list[list[CarveJob]],
+        meanwhile: Callable[[], None] | None = None,
+        *,
+        meanwhile_uses_gl: bool = True,
     ) -> list[CarveJob]:
         """Passes 2-5 of planned hits (each its list of directions) as one batch (see
         `carve_many`); returns the directions with their tiles. `meanwhile` runs once, after
         the first batch's gathers are handed to the rasteriser and before its normal rebuilds:
         a software rasteriser draws the gathers while the CPU does it, where pass 5's first
         draw would otherwise wait for them (on llvmpipe sampling a map the gathers wrote
-        waits for all queued work). It runs (once) also when no hit has a direction."""
+        waits for all queued work). It runs (once) also when no hit has a direction. Whatever
+        GL state it sets is set again after it, unless `meanwhile_uses_gl` is False: the
+        caller's promise that it makes no GL call, so that the batch keeps what it knows of the
+        state (the sandbox's proxies and statistics)."""
         placed: list[CarveJob] = []
         if any(hits):
             if self._options.keep_host_state:  # the host's GL state, as it left it
@@ -633,7 +646,13 @@ class Carver:
                 kept = _from_neutral(self.gl.ctx)
             with kept:
                 for batch in self.scratch.pack([hit for hit in hits if hit]):
-                    self._run(batch, None if placed else hits, None if placed else meanwhile)
+                    first = not placed
+                    self._run(
+                        batch,
+                        hits if first else None,
+                        meanwhile if first else None,
+                        meanwhile_uses_gl,
+                    )
                     placed += batch
             self.last_jobs = placed
         elif meanwhile is not None:
@@ -645,6 +664,7 @@ class Carver:
         jobs: list[CarveJob],
         record: list[list[CarveJob]] | None,
         meanwhile: Callable[[], None] | None = None,
+        meanwhile_uses_gl: bool = True,
     ) -> None:
         """Passes 3, 2, 4 and 5 of every direction of a batch (pass 2 reads pass 3's front
         faces): one clear of the atlas per camera pass, the gathers and normal rebuilds grouped
@@ -678,9 +698,10 @@ class Carver:
             if meanwhile is not None:
                 flush()  # the gathers drawn while the host's work runs
                 meanwhile()
-                held.forget()  # the host's work may have set state, bound textures
-                self._jobs.forget()  # or bound other uniform buffers
-                self._rects.forget()
+                if meanwhile_uses_gl:
+                    held.forget()  # the host's work may have set state, bound textures
+                    self._jobs.forget()  # or bound other uniform buffers
+                    self._rects.forget()
             with self._timed("normals"):
                 self._normal_passes(by_map, draws, held)
         # And pass 5 now, for the same reason: the host's CPU work after the batch then
