@@ -430,6 +430,54 @@ def test_a_shared_batch_binds_only_what_changed_and_each_draw_samples_its_own(gl
         release(vao, *fbos, *targets, *sources, sampler, copy.program)
 
 
+def test_a_shared_batch_sets_a_viewport_only_where_binding_the_framebuffer_left_another(
+    gl, monkeypatch
+):
+    """Binding a framebuffer gives GL the viewport moderngl recorded for it (its whole size
+    until a viewport is set while it is bound). A shared batch draws into A over its left half,
+    into B (another size) whole, then into A whole: the viewport is set for the first draw and
+    the last (A keeps the half it was given), not for B's, and each draw covers its viewport:
+    A all written, B all written."""
+    from dentdemo.gl.passes import Pass, PassState, shared_batch
+
+    ctx = gl.ctx
+    vert = (
+        "#version 330 core\nvoid main() { vec2 p = vec2((gl_VertexID & 1) * 4 - 1,"
+        " (gl_VertexID >> 1) * 4 - 1); gl_Position = vec4(p, 0.0, 1.0); }"
+    )
+    frag = (
+        "#version 330 core\nuniform float u_value;\nout vec4 f;\nvoid main() { f = vec4(u_value); }"
+    )
+    fill = Pass("fill", ctx.program(vertex_shader=vert, fragment_shader=frag), PassState())
+    targets = [ctx.texture(size, 1, dtype="f4") for size in ((8, 4), (16, 2))]
+    fbos = [ctx.framebuffer([t]) for t in targets]
+    vao = ctx.vertex_array(fill.program, [])
+    viewport = moderngl.Context.viewport
+    set_to: list[tuple[int, ...]] = []
+    monkeypatch.setattr(
+        moderngl.Context,
+        "viewport",
+        property(viewport.fget, lambda c, v: set_to.append(tuple(v)) or viewport.fset(c, v)),
+    )
+
+    def draw(prog):
+        vao.render(moderngl.TRIANGLES, vertices=3)
+
+    a, b = fbos
+    try:
+        for fbo in fbos:
+            fbo.clear(-1.0, -1.0, -1.0, -1.0)
+        with shared_batch(ctx, a, fill.state) as one:
+            one(fill, (0, 0, 4, 4), draw, (), {"u_value": 1.0})
+            one(fill, (0, 0, 16, 2), draw, (), {"u_value": 2.0}, into=b)
+            one(fill, (0, 0, 8, 4), draw, (), {"u_value": 3.0}, into=a)
+        assert set_to == [(0, 0, 4, 4), (0, 0, 8, 4)]
+        first, second = (gl.read(t)[..., 0] for t in targets)  # rows, columns
+        assert np.all(first == 3.0) and np.all(second == 2.0)
+    finally:
+        release(vao, *fbos, *targets, fill.program)
+
+
 def test_set_uniforms_writes_each_kind_of_uniform_every_time_it_changes(gl):
     """set_uniforms on library programs (their writers cached after the first write of each
     name) writes floats, vectors, integers, integer vectors and column-major matrices: read back

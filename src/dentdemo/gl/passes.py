@@ -334,8 +334,9 @@ def shared_batch(
     the state the passes before it set (`held_state`), which it applies the difference to and
     leaves set; without, it applies all of it and leaves `neutral` state."""
     bound = [fbo]
-    #: What each texture unit holds since the batch bound it, and the viewport set since the
-    #: framebuffer was bound (binding one sets its own): a draw sets again only what changed.
+    #: What each texture unit holds since the batch bound it, and the viewport GL has (binding
+    #: a framebuffer sets the viewport moderngl recorded for it): a draw sets again only what
+    #: changed.
     #: The batch's draws alone set either meanwhile. A call that sets the same again is not
     #: free: Mesa marks the state changed, and llvmpipe's draw after it costs more.
     units: dict[int, Sampled] = held.units if held is not None else {}
@@ -359,7 +360,7 @@ def shared_batch(
             if into.depth_attachment is not None:
                 mask.set_depth_mask(state.depth_write)
             bound[0] = into
-            view[0] = None
+            view[0] = into.viewport  # moderngl sets its recorded viewport when binding it
         prog = pass_.program
         if len(pass_.samplers) != len(textures):
             raise ValueError(f"pass {pass_.name!r} samples {len(pass_.samplers)} textures")
@@ -379,6 +380,7 @@ def shared_batch(
         draw(prog)
 
     fbo.use()
+    view[0] = fbo.viewport
     depth = fbo.depth_attachment is not None
     if held is None:
         with held_state(ctx) as mask:
