@@ -434,10 +434,12 @@ def test_a_shared_batch_sets_a_viewport_only_where_binding_the_framebuffer_left_
     gl, monkeypatch
 ):
     """Binding a framebuffer gives GL the viewport moderngl recorded for it (its whole size
-    until a viewport is set while it is bound). A shared batch draws into A over its left half,
-    into B (another size) whole, then into A whole: the viewport is set for the first draw and
-    the last (A keeps the half it was given), not for B's, and each draw covers its viewport:
-    A all written, B all written."""
+    until a viewport is set while it is bound), unless that is empty: then GL keeps the one it
+    had. A shared batch draws into A over its left half, into B (another size) whole, into A
+    whole, into A over an empty viewport (as `Carver.warm` does: no fragment), into B whole and
+    into A over the empty viewport again: the viewport is set for each of A's draws (binding A
+    gives it its last non-empty one, then none) and for none of B's, and each draw covers its
+    viewport only: A all the whole draw's value, B all written."""
     from dentdemo.gl.passes import Pass, PassState, shared_batch
 
     ctx = gl.ctx
@@ -471,7 +473,10 @@ def test_a_shared_batch_sets_a_viewport_only_where_binding_the_framebuffer_left_
             one(fill, (0, 0, 4, 4), draw, (), {"u_value": 1.0})
             one(fill, (0, 0, 16, 2), draw, (), {"u_value": 2.0}, into=b)
             one(fill, (0, 0, 8, 4), draw, (), {"u_value": 3.0}, into=a)
-        assert set_to == [(0, 0, 4, 4), (0, 0, 8, 4)]
+            one(fill, (0, 0, 0, 0), draw, (), {"u_value": 5.0})  # no fragment
+            one(fill, (0, 0, 16, 2), draw, (), {"u_value": 2.0}, into=b)
+            one(fill, (0, 0, 0, 0), draw, (), {"u_value": 5.0}, into=a)  # none again
+        assert set_to == [(0, 0, 4, 4), (0, 0, 8, 4), (0, 0, 0, 0), (0, 0, 0, 0)]
         first, second = (gl.read(t)[..., 0] for t in targets)  # rows, columns
         assert np.all(first == 3.0) and np.all(second == 2.0)
     finally:

@@ -360,7 +360,7 @@ def shared_batch(
             if into.depth_attachment is not None:
                 mask.set_depth_mask(state.depth_write)
             bound[0] = into
-            view[0] = into.viewport  # moderngl sets its recorded viewport when binding it
+            view[0] = _bound_viewport(into)
         prog = pass_.program
         if len(pass_.samplers) != len(textures):
             raise ValueError(f"pass {pass_.name!r} samples {len(pass_.samplers)} textures")
@@ -380,7 +380,7 @@ def shared_batch(
         draw(prog)
 
     fbo.use()
-    view[0] = fbo.viewport
+    view[0] = _bound_viewport(fbo)
     depth = fbo.depth_attachment is not None
     if held is None:
         with held_state(ctx) as mask:
@@ -399,6 +399,14 @@ def _same(held: Sampled | None, sampled: Sampled) -> bool:
     if isinstance(sampled, tuple):
         return isinstance(held, tuple) and held[0] is sampled[0] and held[1] is sampled[1]
     return held is sampled
+
+
+def _bound_viewport(fbo: moderngl.Framebuffer) -> tuple[int, int, int, int] | None:
+    """The viewport GL has just after `fbo.use()`: the one moderngl recorded for it, which it
+    sets when binding it unless that is empty (zero width or height: then GL keeps the one it
+    had, unknown here)."""
+    x, y, width, height = fbo.viewport
+    return (x, y, width, height) if width and height else None
 
 
 def bind(ctx: moderngl.Context, sampled: Sampled, unit: int, bare: set[int] | None = None) -> None:
