@@ -402,11 +402,12 @@ def _same(held: Sampled | None, sampled: Sampled) -> bool:
 
 
 def _bound_viewport(fbo: moderngl.Framebuffer) -> tuple[int, int, int, int] | None:
-    """The viewport GL has just after `fbo.use()`: the one moderngl recorded for it, which it
-    sets when binding it unless that is empty (zero width or height: then GL keeps the one it
-    had, unknown here)."""
+    """The viewport GL has just after `fbo.use()`, or None where it is not known: the one
+    moderngl recorded for a framebuffer object, which it sets when binding it unless that is
+    empty (zero width or height: then GL keeps the one it had). The default framebuffer (a
+    window's) is left unknown: older moderngl releases set no viewport when binding it."""
     x, y, width, height = fbo.viewport
-    return (x, y, width, height) if width and height else None
+    return (x, y, width, height) if width and height and fbo.glo else None
 
 
 def bind(ctx: moderngl.Context, sampled: Sampled, unit: int, bare: set[int] | None = None) -> None:
