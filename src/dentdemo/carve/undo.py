@@ -387,17 +387,7 @@ class UndoLog:
             [Snapshot(maps, rect, xy) for (maps, rect), xy in zip(rects, at, strict=True)],
             self._pair(size),
         )
-        # Every height, then every normal: the copies into one texture one after the other.
-        pair = entry.textures
-        copies: list[Copy] = [
-            (snap.maps.height_fbo, snap.rect[:2], pair.height, snap.at, *snap.rect[2:])
-            for snap in entry
-        ]
-        copies += [
-            (snap.maps.normal_fbo, snap.rect[:2], pair.normal, snap.at, *snap.rect[2:])
-            for snap in entry
-        ]
-        self._blit(copies)
+        self._blit(_snapshot_copies(entry))
         self.entries.append(entry)
         self.bytes += needed
 
@@ -407,16 +397,11 @@ class UndoLog:
         if not self.entries:
             return False
         entry = self.entries.pop()
-        pair = entry.textures
-        # The rectangles of one entry and map are disjoint: any order; every height, then every
-        # normal, so that each snapshot texture is attached once (`_blit`).
+        # Record's copies the other way (the rectangles of one entry and map are disjoint: any
+        # order would do).
         copies: list[Copy] = [
-            (pair.height, snap.at, snap.maps.height_fbo, snap.rect[:2], *snap.rect[2:])
-            for snap in entry
-        ]
-        copies += [
-            (pair.normal, snap.at, snap.maps.normal_fbo, snap.rect[:2], *snap.rect[2:])
-            for snap in entry
+            (target, at, source, xy, w, h)
+            for source, xy, target, at, w, h in _snapshot_copies(entry)
         ]
         with preserved(self.gl.ctx):
             self._blit(copies)
@@ -510,6 +495,22 @@ class UndoLog:
             gl_library().glGenFramebuffers(2, names)
             self._fbos = (names[0], names[1])
         return self._fbos
+
+
+def _snapshot_copies(entry: Entry) -> list[Copy]:
+    """The copies that record `entry`: each snapshot's rectangle of its maps into its place in
+    the entry's pair of textures, every height, then every normal, so that the copies into one
+    texture run one after the other (`UndoLog._blit` attaches it once)."""
+    pair = entry.textures
+    heights: list[Copy] = [
+        (snap.maps.height_fbo, snap.rect[:2], pair.height, snap.at, *snap.rect[2:])
+        for snap in entry
+    ]
+    normals: list[Copy] = [
+        (snap.maps.normal_fbo, snap.rect[:2], pair.normal, snap.at, *snap.rect[2:])
+        for snap in entry
+    ]
+    return heights + normals
 
 
 def _kib(count: int) -> str:
