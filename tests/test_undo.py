@@ -26,9 +26,9 @@ from dentdemo.carve.undo import (
     packed,
     size_class,
 )
-from dentdemo.gl.library import gl_library
 from dentdemo.mesh.shapes import shape_mesh
 from dentdemo.model.shapes import Plane
+from gl_helpers import raw_gl_calls
 
 SIDE = 0.4  # plate side, m
 R = 0.05  # ball radius, m
@@ -335,34 +335,16 @@ def test_each_snapshot_texture_is_attached_once_a_record_and_an_undo(gl, scene):
     bit."""
     plate, ball, carver = scene
     log = _own_log(carver, UNDO_DEPTH, UNDO_BYTES)
-    gl_ = gl_library()
-    plain = type(gl_)
-    attached: list[tuple[int, int]] = []
-
-    class Counted(plain):  # type: ignore[valid-type, misc]
-        def __getattribute__(self, name: str):  # noqa: ANN204
-            function = plain.__getattribute__(self, name)
-            if name == "glFramebufferTexture2D":
-
-                def wrapped(target, attachment, kind, texture, level, function=function):  # noqa: ANN001, ANN202
-                    attached.append((int(target), int(texture)))
-                    return function(target, attachment, kind, texture, level)
-
-                return wrapped
-            return function
-
     try:
         before = _maps(gl, plate, ball)
-        gl_.glFramebufferTexture2D  # noqa: B018 - looked up once (ctypes keeps it) before counting
-        gl_.__class__ = Counted
-        try:
+        # (target, texture) of each glFramebufferTexture2D(target, attachment, kind, texture, 0)
+        with raw_gl_calls("glFramebufferTexture2D") as calls:
             assert _press(carver, plate, ball, 1)
             (entry,) = log.entries
-            recorded = list(attached)
-            attached.clear()
+            recorded = [(args[0], args[3]) for _, args in calls]
+            calls.clear()
             assert carver.undo()
-        finally:
-            gl_.__class__ = plain
+        attached = [(args[0], args[3]) for _, args in calls]
         pair = {entry.textures.height.glo, entry.textures.normal.glo}
         assert len(list(entry)) == 2  # one rectangle a body: four copies
         assert sorted(texture for _, texture in recorded) == sorted(pair)
